@@ -1,0 +1,88 @@
+// Non-maximum suppression in space (3x3) and across adjacent scales (3x3 in each), response
+// threshold, border margin, sub-pixel parabola fit, and compaction of the survivors with an
+// atomic counter (paper section 2.2.2: local maxima of R in scale and space).
+// CPU twin: suppress and parabola_offset in src/features/harris.rs.
+
+struct Params {
+    width: u32,
+    height: u32,
+    plane: u32,
+    orientations: u32,
+    scale: u32,
+    has_prev: u32,
+    has_next: u32,
+    margin: u32,
+}
+
+struct Settings {
+    threshold: f32,
+    capacity: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct Candidate {
+    x: f32,
+    y: f32,
+    response: f32,
+    packed: u32,  // scale << 16 | orientation
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> settings: Settings;
+@group(0) @binding(2) var<storage, read> prev: array<f32>;
+@group(0) @binding(3) var<storage, read> cur: array<f32>;
+@group(0) @binding(4) var<storage, read> next: array<f32>;
+@group(0) @binding(5) var<storage, read_write> counter: atomic<u32>;
+@group(0) @binding(6) var<storage, read_write> candidates: array<Candidate>;
+
+fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
+    let den = l - 2.0 * c + r;
+    if (den < 0.0) {
+        return clamp(0.5 * (l - r) / den, -0.5, 0.5);
+    }
+    return 0.0;
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let m = params.margin;
+    if (params.width <= 2u * m || params.height <= 2u * m) {
+        return;
+    }
+    if (gid.x < m || gid.y < m || gid.x >= params.width - m || gid.y >= params.height - m) {
+        return;
+    }
+    let w = params.width;
+    for (var t = 0u; t < params.orientations; t++) {
+        let base = t * params.plane;
+        let i = base + gid.y * w + gid.x;
+        let v = cur[i];
+        if (!(v > settings.threshold)) {
+            continue;
+        }
+        var keep = true;
+        for (var dy = 0u; dy < 3u; dy++) {
+            for (var dx = 0u; dx < 3u; dx++) {
+                let n = base + (gid.y + dy - 1u) * w + (gid.x + dx - 1u);
+                if ((dx != 1u || dy != 1u) && cur[n] >= v) {
+                    keep = false;
+                }
+                if (params.has_prev == 1u && prev[n] > v) {
+                    keep = false;
+                }
+                if (params.has_next == 1u && next[n] > v) {
+                    keep = false;
+                }
+            }
+        }
+        if (keep) {
+            let ox = parabola_offset(cur[i - 1u], v, cur[i + 1u]);
+            let oy = parabola_offset(cur[i - w], v, cur[i + w]);
+            let slot = atomicAdd(&counter, 1u);
+            if (slot < settings.capacity) {
+                candidates[slot] = Candidate(f32(gid.x) + ox, f32(gid.y) + oy, v, (params.scale << 16u) | t);
+            }
+        }
+    }
+}

@@ -1,0 +1,405 @@
+//! The two-stage merge of section 2.2.2: the detections of all N orientations and S scales are
+//! clustered, clusters whose means end up close are merged, and each cluster's mean becomes a
+//! keypoint.
+//!
+//! The default (`covariant`) is built so that a rotated image merges into the rotated keypoints:
+//! stage 1 is k-means seeded deterministically by a radius suppression over the candidates,
+//! strongest first, with each mean confined to its neighbourhood (assignment radius 1.5·r);
+//! stage 2 merges the means that end up within r of a stronger one. `kmeans-pp` is the literal
+//! reading (k-means++ random starts over all candidates), kept for comparison.
+
+use rayon::prelude::*;
+
+use super::config::MergeMode;
+use super::steerable::HarrisPlan;
+use super::Candidate;
+
+/// A merged cluster before its descriptor is computed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cluster {
+    /// Response-weighted mean column.
+    pub x: f32,
+    /// Response-weighted mean row.
+    pub y: f32,
+    /// Strongest member response.
+    pub response: f32,
+    /// Scale index with the largest summed member response.
+    pub scale_index: usize,
+    /// Orientation index with the largest summed member response.
+    pub orientation_index: usize,
+    /// Number of member candidates.
+    pub members: usize,
+}
+
+/// Running statistics of a cluster.
+#[derive(Clone, Debug)]
+struct Stats {
+    wsum: f64,
+    sx: f64,
+    sy: f64,
+    max: f32,
+    count: usize,
+    by_scale: Vec<f64>,
+    by_orientation: Vec<f64>,
+}
+
+impl Stats {
+    fn new(scales: usize, orientations: usize) -> Self {
+        Self {
+            wsum: 0.0,
+            sx: 0.0,
+            sy: 0.0,
+            max: f32::MIN,
+            count: 0,
+            by_scale: vec![0.0; scales],
+            by_orientation: vec![0.0; orientations],
+        }
+    }
+    fn add(&mut self, c: &Candidate) {
+        let w = c.response.max(1e-20) as f64;
+        self.wsum += w;
+        self.sx += w * c.x as f64;
+        self.sy += w * c.y as f64;
+        self.max = self.max.max(c.response);
+        self.count += 1;
+        self.by_scale[c.scale_index()] += w;
+        self.by_orientation[c.orientation_index()] += w;
+    }
+    fn absorb(&mut self, o: &Stats) {
+        self.wsum += o.wsum;
+        self.sx += o.sx;
+        self.sy += o.sy;
+        self.max = self.max.max(o.max);
+        self.count += o.count;
+        for (a, b) in self.by_scale.iter_mut().zip(&o.by_scale) {
+            *a += b;
+        }
+        for (a, b) in self.by_orientation.iter_mut().zip(&o.by_orientation) {
+            *a += b;
+        }
+    }
+    fn centre(&self) -> (f32, f32) {
+        ((self.sx / self.wsum) as f32, (self.sy / self.wsum) as f32)
+    }
+}
+
+fn argmax(v: &[f64]) -> usize {
+    v.iter()
+        .enumerate()
+        .fold(
+            (0, f64::MIN),
+            |best, (i, &x)| if x > best.1 { (i, x) } else { best },
+        )
+        .0
+}
+
+/// A uniform grid over points for radius queries.
+struct Grid {
+    cell: f32,
+    cols: usize,
+    rows: usize,
+    buckets: Vec<Vec<usize>>,
+}
+
+impl Grid {
+    fn new(points: &[(f32, f32)], cell: f32) -> Self {
+        let (mut mx, mut my) = (0.0f32, 0.0f32);
+        for &(x, y) in points {
+            mx = mx.max(x);
+            my = my.max(y);
+        }
+        let cols = (mx / cell) as usize + 2;
+        let rows = (my / cell) as usize + 2;
+        let mut g = Self {
+            cell,
+            cols,
+            rows,
+            buckets: vec![Vec::new(); cols * rows],
+        };
+        for (i, &p) in points.iter().enumerate() {
+            let b = g.bucket(p);
+            g.buckets[b].push(i);
+        }
+        g
+    }
+    fn coords(&self, (x, y): (f32, f32)) -> (usize, usize) {
+        let cx = ((x.max(0.0) / self.cell) as usize).min(self.cols - 1);
+        let cy = ((y.max(0.0) / self.cell) as usize).min(self.rows - 1);
+        (cx, cy)
+    }
+    fn bucket(&self, p: (f32, f32)) -> usize {
+        let (cx, cy) = self.coords(p);
+        cy * self.cols + cx
+    }
+    /// Indices stored in the 3×3 cells around `p` (covers every point within `cell`).
+    fn near(&self, p: (f32, f32)) -> impl Iterator<Item = usize> + '_ {
+        let (cx, cy) = self.coords(p);
+        let xs = cx.saturating_sub(1)..=(cx + 1).min(self.cols - 1);
+        let ys = cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1);
+        ys.flat_map(move |y| xs.clone().map(move |x| y * self.cols + x))
+            .flat_map(move |b| self.buckets[b].iter().copied())
+    }
+}
+
+fn dist2(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)
+}
+
+/// Merges candidates (sorted strongest first) into clusters, strongest first, at most
+/// `max_keypoints` of them.
+pub fn merge(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Cluster> {
+    if candidates.is_empty() {
+        return Vec::new();
+    }
+    let cfg = &plan.config;
+    let stats = match cfg.merge {
+        MergeMode::Covariant => covariant_stage1(candidates, plan),
+        MergeMode::KmeansPp => kmeans_pp_stage1(candidates, plan),
+    };
+    let mut clusters = merge_close(stats, cfg.merge_radius);
+    clusters.truncate(cfg.max_keypoints);
+    clusters
+}
+
+/// Stage 1, covariant: radius-suppression seeds, then confined Lloyd iterations.
+fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
+    let r = plan.config.merge_radius;
+    let points: Vec<(f32, f32)> = candidates.iter().map(|c| (c.x, c.y)).collect();
+    let mut seeds: Vec<(f32, f32)> = Vec::new();
+    {
+        let mut grid = Grid::new(&points, r);
+        grid.buckets.iter_mut().for_each(Vec::clear);
+        for &p in &points {
+            if grid.near(p).all(|i| dist2(seeds[i], p) > r * r) {
+                let b = grid.bucket(p);
+                grid.buckets[b].push(seeds.len());
+                seeds.push(p);
+            }
+        }
+    }
+    let reach = 1.5 * r;
+    let (ns, no) = (plan.scales.len(), plan.orientations.len());
+    let mut centres = seeds;
+    let mut stats = Vec::new();
+    for _ in 0..3 {
+        let grid = Grid::new(&centres, reach);
+        let assignment: Vec<Option<usize>> = points
+            .par_iter()
+            .map(|&p| {
+                grid.near(p)
+                    .map(|i| (dist2(centres[i], p), i))
+                    .filter(|&(d, _)| d <= reach * reach)
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+                    .map(|(_, i)| i)
+            })
+            .collect();
+        stats = vec![Stats::new(ns, no); centres.len()];
+        for (c, a) in candidates.iter().zip(&assignment) {
+            if let Some(i) = a {
+                stats[*i].add(c);
+            }
+        }
+        stats.retain(|s| s.count > 0);
+        let moved: Vec<(f32, f32)> = stats.iter().map(Stats::centre).collect();
+        let settled = moved.len() == centres.len()
+            && moved
+                .iter()
+                .zip(&centres)
+                .all(|(a, b)| dist2(*a, *b) < 1e-6);
+        centres = moved;
+        if settled {
+            break;
+        }
+    }
+    stats
+}
+
+/// A small deterministic generator (SplitMix64) for the k-means++ starts.
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next_f64(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// Stage 1, literal: k-means++ over all candidates with k = max_keypoints, 10 Lloyd iterations.
+fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
+    let points: Vec<(f32, f32)> = candidates.iter().map(|c| (c.x, c.y)).collect();
+    let k = plan.config.max_keypoints.min(points.len());
+    let mut rng = SplitMix(plan.config.seed);
+    let mut centres = vec![points[(rng.next_f64() * points.len() as f64) as usize % points.len()]];
+    let mut d2: Vec<f32> = points.iter().map(|&p| dist2(p, centres[0])).collect();
+    while centres.len() < k {
+        let total: f64 = d2.iter().map(|&d| d as f64).sum();
+        if total <= 0.0 {
+            break;
+        }
+        let mut target = rng.next_f64() * total;
+        let mut pick = points.len() - 1;
+        for (i, &d) in d2.iter().enumerate() {
+            target -= d as f64;
+            if target <= 0.0 {
+                pick = i;
+                break;
+            }
+        }
+        let c = points[pick];
+        centres.push(c);
+        d2.par_iter_mut()
+            .zip(&points)
+            .for_each(|(d, &p)| *d = d.min(dist2(p, c)));
+    }
+    let (ns, no) = (plan.scales.len(), plan.orientations.len());
+    let mut stats = Vec::new();
+    for _ in 0..10 {
+        let assignment: Vec<usize> = points
+            .par_iter()
+            .map(|&p| {
+                centres
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &c)| (dist2(c, p), i))
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map_or(0, |(_, i)| i)
+            })
+            .collect();
+        stats = vec![Stats::new(ns, no); centres.len()];
+        let mut plain = vec![(0.0f64, 0.0f64, 0usize); centres.len()];
+        for ((c, &a), p) in candidates.iter().zip(&assignment).zip(&points) {
+            stats[a].add(c);
+            plain[a].0 += p.0 as f64;
+            plain[a].1 += p.1 as f64;
+            plain[a].2 += 1;
+        }
+        // Plain (unweighted) means, as k-means is usually run.
+        centres = plain
+            .iter()
+            .zip(&centres)
+            .map(|(&(sx, sy, n), &c)| {
+                if n > 0 {
+                    ((sx / n as f64) as f32, (sy / n as f64) as f32)
+                } else {
+                    c
+                }
+            })
+            .collect();
+    }
+    stats.retain(|s| s.count > 0);
+    stats
+}
+
+/// Stage 2: strongest first, each cluster absorbs the weaker ones whose means lie within r.
+fn merge_close(mut stats: Vec<Stats>, r: f32) -> Vec<Cluster> {
+    stats.sort_by(|a, b| {
+        let (ca, cb) = (a.centre(), b.centre());
+        b.max
+            .total_cmp(&a.max)
+            .then(ca.1.total_cmp(&cb.1))
+            .then(ca.0.total_cmp(&cb.0))
+    });
+    let centres: Vec<(f32, f32)> = stats.iter().map(Stats::centre).collect();
+    let grid = Grid::new(&centres, r);
+    let mut absorbed = vec![false; stats.len()];
+    let mut out = Vec::new();
+    for i in 0..stats.len() {
+        if absorbed[i] {
+            continue;
+        }
+        let mut total = stats[i].clone();
+        let mut near: Vec<usize> = grid
+            .near(centres[i])
+            .filter(|&j| j > i && !absorbed[j] && dist2(centres[i], centres[j]) <= r * r)
+            .collect();
+        near.sort_unstable();
+        for j in near {
+            absorbed[j] = true;
+            total.absorb(&stats[j]);
+        }
+        let (x, y) = total.centre();
+        out.push(Cluster {
+            x,
+            y,
+            response: total.max,
+            scale_index: argmax(&total.by_scale),
+            orientation_index: argmax(&total.by_orientation),
+            members: total.count,
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::{DetectorConfig, MergeMode};
+
+    fn cand(x: f32, y: f32, r: f32, s: usize, t: usize) -> Candidate {
+        Candidate {
+            x,
+            y,
+            response: r,
+            packed: Candidate::pack(s, t),
+        }
+    }
+
+    #[test]
+    fn nearby_detections_merge_into_one_weighted_mean() {
+        let plan = HarrisPlan::new(&DetectorConfig::default());
+        let mut c = vec![
+            cand(10.0, 10.0, 3.0, 0, 2),
+            cand(11.0, 10.0, 1.0, 1, 2),
+            cand(30.0, 30.0, 2.0, 2, 5),
+        ];
+        crate::features::sort_candidates(&mut c);
+        let m = merge(&c, &plan);
+        assert_eq!(m.len(), 2);
+        assert!((m[0].x - 10.25).abs() < 1e-5 && m[0].y == 10.0);
+        assert_eq!(
+            (m[0].scale_index, m[0].orientation_index, m[0].members),
+            (0, 2, 2)
+        );
+        assert_eq!(
+            (m[1].x, m[1].scale_index, m[1].orientation_index),
+            (30.0, 2, 5)
+        );
+    }
+
+    #[test]
+    fn merge_is_covariant_with_translation_and_kmeans_pp_is_deterministic() {
+        let mut cfg = DetectorConfig::default();
+        let pts: Vec<Candidate> = (0..200)
+            .map(|i| {
+                cand(
+                    (i * 37 % 101) as f32 * 1.3,
+                    (i * 53 % 97) as f32 * 1.1,
+                    1.0 + (i % 7) as f32,
+                    0,
+                    0,
+                )
+            })
+            .collect();
+        let shifted: Vec<Candidate> = pts
+            .iter()
+            .map(|c| cand(c.x + 40.0, c.y + 25.0, c.response, 0, 0))
+            .collect();
+        let (mut a, mut b) = (pts.clone(), shifted);
+        crate::features::sort_candidates(&mut a);
+        crate::features::sort_candidates(&mut b);
+        let plan = HarrisPlan::new(&cfg);
+        let (ma, mb) = (merge(&a, &plan), merge(&b, &plan));
+        assert_eq!(ma.len(), mb.len());
+        for (p, q) in ma.iter().zip(&mb) {
+            assert!((p.x + 40.0 - q.x).abs() < 1e-3 && (p.y + 25.0 - q.y).abs() < 1e-3);
+        }
+        cfg.merge = MergeMode::KmeansPp;
+        cfg.max_keypoints = 50;
+        let plan = HarrisPlan::new(&cfg);
+        assert_eq!(merge(&a, &plan), merge(&a, &plan));
+        assert!(merge(&a, &plan).len() <= 50);
+    }
+}

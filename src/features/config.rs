@@ -1,0 +1,200 @@
+//! Detector configuration: every knob of sections 2.2–2.3 with its documented default,
+//! loadable from TOML (`[detector]` table) and validated before any work starts.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Order of the Gaussian-derivative basis that is steered (eq 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum BasisOrder {
+    /// First derivatives (Gx, Gy): F(θ) = cosθ·Ix + sinθ·Iy.
+    First,
+    /// Second derivatives (Gxx, Gxy, Gyy): F(θ) = cos²θ·Ixx + 2cosθ sinθ·Ixy + sin²θ·Iyy.
+    Second,
+}
+
+impl BasisOrder {
+    /// The derivative order n of the basis.
+    pub fn order(self) -> usize {
+        match self {
+            BasisOrder::First => 1,
+            BasisOrder::Second => 2,
+        }
+    }
+}
+
+/// How the detections of all orientations and scales are merged into keypoints (section 2.2.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum MergeMode {
+    /// Two-stage merge covariant with the image: k-means seeded from a radius suppression of
+    /// the strongest candidates and confined to their neighbourhoods, then close means merged.
+    Covariant,
+    /// The literal reading of the paper: k-means++ with random (seeded) starts over all
+    /// candidates, k = max_keypoints, then close means merged. Kept for comparison.
+    KmeansPp,
+}
+
+/// All parameters of the detector; `Default` gives the documented defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DetectorConfig {
+    /// Number of steered orientations N, spread over [0, π) (eq 3). Default 8.
+    pub orientations: usize,
+    /// Basis of the steerable filter. Default second order.
+    pub basis: BasisOrder,
+    /// Standard deviation of the Gaussian basis filters, in pixels. Default 1.0.
+    pub basis_sigma: f32,
+    /// Number of detection scales S. Default 5.
+    pub scales: usize,
+    /// Finest differentiation scale σ_D, in pixels. Default 1.0.
+    pub sigma0: f32,
+    /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default 1.4.
+    pub scale_step: f32,
+    /// Integration-window ratio γ (σ_I = γ·σ_D, eq 7). Default 1.5.
+    pub gamma: f32,
+    /// Harris constant k of eq 8. Default 0.04.
+    pub harris_k: f32,
+    /// Minimum scale-normalised Harris response of a candidate. Default 1e-5.
+    pub threshold: f32,
+    /// Kernels are truncated at this many standard deviations. Default 3.0.
+    pub truncate: f32,
+    /// Merge strategy. Default covariant.
+    pub merge: MergeMode,
+    /// Radius of the merge neighbourhoods, in pixels. Default 2.0.
+    pub merge_radius: f32,
+    /// Keep at most this many keypoints, the strongest. Default 500.
+    pub max_keypoints: usize,
+    /// Capacity of the candidate list read back from the GPU; when more candidates survive,
+    /// both backends raise the threshold ×4 until they fit. Default 131072.
+    pub candidate_capacity: usize,
+    /// Seed of the random starts of `kmeans-pp`. Default 7.
+    pub seed: u64,
+}
+
+impl Default for DetectorConfig {
+    fn default() -> Self {
+        Self {
+            orientations: 8,
+            basis: BasisOrder::Second,
+            basis_sigma: 1.0,
+            scales: 5,
+            sigma0: 1.0,
+            scale_step: 1.4,
+            gamma: 1.5,
+            harris_k: 0.04,
+            threshold: 1e-5,
+            truncate: 3.0,
+            merge: MergeMode::Covariant,
+            merge_radius: 2.0,
+            max_keypoints: 500,
+            candidate_capacity: 1 << 17,
+            seed: 7,
+        }
+    }
+}
+
+/// Upper bound on orientations: the GPU's non-maximum suppression visits 27 neighbours per
+/// orientation in one invocation and lavapipe stops loops past 65,535 iterations.
+pub const MAX_ORIENTATIONS: usize = 180;
+/// Upper bound on scales (kernel radii grow geometrically).
+pub const MAX_SCALES: usize = 16;
+
+impl DetectorConfig {
+    /// Checks every value; the error names the field and its valid range.
+    pub fn validate(&self) -> Result<()> {
+        fn bad(field: &'static str, value: impl ToString, reason: &str) -> Result<()> {
+            Err(Error::Config {
+                field,
+                value: value.to_string(),
+                reason: reason.to_string(),
+            })
+        }
+        let positive = [
+            ("basis_sigma", self.basis_sigma),
+            ("sigma0", self.sigma0),
+            ("gamma", self.gamma),
+            ("truncate", self.truncate),
+            ("merge_radius", self.merge_radius),
+        ];
+        for (field, v) in positive {
+            if !v.is_finite() || v <= 0.0 {
+                return bad(field, v, "must be a finite number > 0");
+            }
+        }
+        if !self.scale_step.is_finite() || self.scale_step <= 1.0 {
+            return bad("scale_step", self.scale_step, "must be a finite number > 1");
+        }
+        if !self.harris_k.is_finite() || !(0.0..0.25).contains(&self.harris_k) {
+            return bad("harris_k", self.harris_k, "must be finite, in [0, 0.25)");
+        }
+        if !self.threshold.is_finite() || self.threshold < 0.0 {
+            return bad("threshold", self.threshold, "must be a finite number >= 0");
+        }
+        if !(1..=MAX_ORIENTATIONS).contains(&self.orientations) {
+            return bad(
+                "orientations",
+                self.orientations,
+                &format!("must be in 1..={MAX_ORIENTATIONS}"),
+            );
+        }
+        if !(1..=MAX_SCALES).contains(&self.scales) {
+            return bad(
+                "scales",
+                self.scales,
+                &format!("must be in 1..={MAX_SCALES}"),
+            );
+        }
+        let largest = self.sigma0 * self.scale_step.powi(self.scales as i32 - 1) * self.gamma;
+        if !largest.is_finite() || largest * self.truncate > 256.0 {
+            return bad(
+                "scales",
+                self.scales,
+                "the largest integration window would exceed a 256-pixel radius",
+            );
+        }
+        if self.max_keypoints == 0 {
+            return bad("max_keypoints", 0, "must be at least 1");
+        }
+        if !(1..=(1 << 22)).contains(&self.candidate_capacity) {
+            return bad(
+                "candidate_capacity",
+                self.candidate_capacity,
+                "must be in 1..=4194304",
+            );
+        }
+        Ok(())
+    }
+
+    /// Parses a TOML document (the `[detector]` table or a bare table) and validates it.
+    pub fn from_toml_str(text: &str) -> Result<Self, String> {
+        #[derive(Deserialize)]
+        struct Wrapped {
+            detector: DetectorConfig,
+        }
+        let cfg = match toml::from_str::<Wrapped>(text) {
+            Ok(w) => w.detector,
+            Err(_) => toml::from_str::<DetectorConfig>(text).map_err(|e| e.to_string())?,
+        };
+        cfg.validate().map_err(|e| e.to_string())?;
+        Ok(cfg)
+    }
+
+    /// Differentiation scale σ_D of detection scale `s`.
+    pub fn sigma_d(&self, s: usize) -> f32 {
+        self.sigma0 * self.scale_step.powi(s as i32)
+    }
+
+    /// Integration scale σ_I = γ·σ_D of detection scale `s`.
+    pub fn sigma_i(&self, s: usize) -> f32 {
+        self.gamma * self.sigma_d(s)
+    }
+
+    /// Candidates closer than this to the border are dropped at scale `s`: 2σ_D, at least 2 px,
+    /// where clamped borders would otherwise invent structure.
+    pub fn margin(&self, s: usize) -> u32 {
+        (2.0 * self.sigma_d(s)).ceil().max(2.0) as u32
+    }
+}

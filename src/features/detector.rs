@@ -1,0 +1,200 @@
+//! The detector pipeline of section 2.2–2.3 behind one API, on either backend:
+//! Harris candidates (GPU or CPU) → two-stage merge (CPU) → descriptors (CPU).
+
+use std::sync::Once;
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::cluster::merge;
+use super::config::DetectorConfig;
+use super::descriptor::describe;
+use super::harris::CpuHarris;
+use super::steerable::HarrisPlan;
+use super::{Candidate, Keypoint};
+use crate::error::{Error, Result};
+use crate::gpu::harris::{GpuHarris, GpuTimings};
+use crate::gpu::{gpu_required, GpuContext};
+use crate::image::Frame;
+
+/// Where the heavy image work runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Backend {
+    /// The GPU when an adapter exists, else the CPU (one warning line).
+    Auto,
+    /// WGSL compute shaders through wgpu; an error when no adapter exists.
+    Gpu,
+    /// The rayon reference implementation.
+    Cpu,
+}
+
+/// Wall-clock and GPU timings of one detection.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StageTimings {
+    /// Harris stage including upload and readback (wall clock).
+    pub harris_ms: f64,
+    /// Two-stage merge.
+    pub merge_ms: f64,
+    /// Descriptors.
+    pub descriptor_ms: f64,
+    /// Per-stage GPU time from timestamp queries, when the GPU ran with them.
+    pub gpu: Option<GpuTimings>,
+}
+
+/// The result of detecting on one frame.
+#[derive(Clone, Debug)]
+pub struct Detection {
+    /// Keypoints, strongest first.
+    pub keypoints: Vec<Keypoint>,
+    /// Number of Harris candidates that were merged.
+    pub candidates: usize,
+    /// The response threshold finally applied (raised when the candidate list overflowed).
+    pub threshold: f32,
+    /// Number of keypoints whose dominant scale is each detection scale.
+    pub scale_histogram: Vec<usize>,
+    /// "gpu" or "cpu".
+    pub backend: &'static str,
+    /// Timings.
+    pub timings: StageTimings,
+}
+
+/// A configured detector; create once, call [`Detector::detect`] on many frames.
+pub struct Detector {
+    plan: HarrisPlan,
+    cpu: CpuHarris,
+    gpu: Option<GpuHarris>,
+    fallback: bool,
+}
+
+static AUTO_WARNING: Once = Once::new();
+
+fn warn_once(message: &str) {
+    AUTO_WARNING.call_once(|| eprintln!("warning: {message}; using the CPU backend"));
+}
+
+impl Detector {
+    /// Validates the configuration and sets up the backend. `Auto` falls back to the CPU with
+    /// one warning line, unless `STEERNAV_REQUIRE_GPU=1` demands a GPU.
+    pub fn new(config: &DetectorConfig, backend: Backend) -> Result<Self> {
+        config.validate()?;
+        let plan = HarrisPlan::new(config);
+        let gpu = match backend {
+            Backend::Cpu => None,
+            Backend::Gpu => Some(GpuHarris::new(GpuContext::shared()?, plan.clone())),
+            Backend::Auto => match GpuContext::shared() {
+                Ok(ctx) => Some(GpuHarris::new(ctx, plan.clone())),
+                Err(e) if gpu_required() => return Err(e),
+                Err(e) => {
+                    warn_once(&e.to_string());
+                    None
+                }
+            },
+        };
+        Ok(Self {
+            cpu: CpuHarris::new(plan.clone()),
+            plan,
+            gpu,
+            fallback: backend == Backend::Auto,
+        })
+    }
+
+    /// The plan (kernels, scales, orientations) this detector runs.
+    pub fn plan(&self) -> &HarrisPlan {
+        &self.plan
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &DetectorConfig {
+        &self.plan.config
+    }
+
+    /// "gpu" or "cpu": where frames go by default.
+    pub fn backend(&self) -> &'static str {
+        if self.gpu.is_some() {
+            "gpu"
+        } else {
+            "cpu"
+        }
+    }
+
+    /// The GPU stage, when this detector runs on the GPU.
+    pub fn gpu(&self) -> Option<&GpuHarris> {
+        self.gpu.as_ref()
+    }
+
+    /// The CPU stage (always available: it is the reference).
+    pub fn cpu(&self) -> &CpuHarris {
+        &self.cpu
+    }
+
+    /// Checks that frames of this size can be processed (GPU limits), allocating nothing.
+    pub fn check_size(&self, width: u32, height: u32) -> Result<()> {
+        crate::image::check_size("image", width, height)?;
+        match &self.gpu {
+            Some(g) => g.check_fits(width, height),
+            None => Ok(()),
+        }
+    }
+
+    /// Harris candidates of a frame, sorted strongest first, with the threshold used, the
+    /// backend that ran and the GPU timings.
+    pub fn candidates(
+        &self,
+        frame: &Frame,
+    ) -> Result<(Vec<Candidate>, f32, &'static str, Option<GpuTimings>)> {
+        crate::image::check_size("image", frame.width, frame.height)?;
+        if let Some(g) = &self.gpu {
+            match g.candidates(&frame.gray, frame.width, frame.height) {
+                Ok((c, t, timings)) => return Ok((c, t, "gpu", timings)),
+                Err(Error::GpuLimit(msg)) if self.fallback && !gpu_required() => {
+                    eprintln!("warning: {msg}; this image goes to the CPU backend");
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        let (c, t) = self
+            .cpu
+            .candidates(&frame.gray, frame.width as usize, frame.height as usize);
+        Ok((c, t, "cpu", None))
+    }
+
+    /// Keypoints with descriptors of one frame.
+    pub fn detect(&self, frame: &Frame) -> Result<Detection> {
+        let t0 = Instant::now();
+        let (candidates, threshold, backend, gpu) = self.candidates(frame)?;
+        let t1 = Instant::now();
+        let clusters = merge(&candidates, &self.plan);
+        let t2 = Instant::now();
+        let mut scale_histogram = vec![0; self.plan.scales.len()];
+        let keypoints = clusters
+            .iter()
+            .map(|c| {
+                scale_histogram[c.scale_index] += 1;
+                Keypoint {
+                    x: c.x,
+                    y: c.y,
+                    scale: self.plan.scales[c.scale_index].sigma_d,
+                    angle: self.plan.orientations[c.orientation_index],
+                    response: c.response,
+                    descriptor: describe(frame, c.x, c.y),
+                }
+            })
+            .collect();
+        let t3 = Instant::now();
+        let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
+        Ok(Detection {
+            keypoints,
+            candidates: candidates.len(),
+            threshold,
+            scale_histogram,
+            backend,
+            timings: StageTimings {
+                harris_ms: ms(t0, t1),
+                merge_ms: ms(t1, t2),
+                descriptor_ms: ms(t2, t3),
+                gpu,
+            },
+        })
+    }
+}

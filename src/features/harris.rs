@@ -1,0 +1,243 @@
+//! CPU reference of the multiscale steered Harris detector (eqs 5–8): derivative images,
+//! window-blurred products, per-orientation responses, non-maximum suppression in space and
+//! scale with a sub-pixel parabola fit. Twin of `shaders/{convolve,products,response,nms}.wgsl`.
+
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+
+use super::convolve::{convolve_columns, convolve_rows, convolve_separable};
+use super::steerable::{harris_response, HarrisPlan};
+use super::Candidate;
+
+/// Per-frame scratch planes, kept between frames of the same size.
+#[derive(Default)]
+struct Workspace {
+    width: usize,
+    height: usize,
+    scratch: Vec<f32>,
+    derivatives: Vec<Vec<f32>>,
+    product: Vec<f32>,
+    blurred: Vec<Vec<f32>>,
+    responses: Vec<Vec<f32>>,
+}
+
+/// The CPU backend of the Harris stage; reuses its buffers across frames of one size.
+pub struct CpuHarris {
+    plan: HarrisPlan,
+    workspace: Mutex<Workspace>,
+}
+
+/// Output of the Harris stage for inspection: responses of every scale and orientation.
+pub struct ResponseStack {
+    /// `responses[s]` holds N planes (layout `[θ][y][x]`).
+    pub responses: Vec<Vec<f32>>,
+    /// Plane width.
+    pub width: usize,
+    /// Plane height.
+    pub height: usize,
+}
+
+impl CpuHarris {
+    /// Prepares the backend for a plan.
+    pub fn new(plan: HarrisPlan) -> Self {
+        Self {
+            plan,
+            workspace: Mutex::new(Workspace::default()),
+        }
+    }
+
+    /// The plan this backend runs.
+    pub fn plan(&self) -> &HarrisPlan {
+        &self.plan
+    }
+
+    /// Derivative images D_k of scale `s` (scale-normalised), for parity tests.
+    pub fn derivatives(
+        &self,
+        gray: &[f32],
+        width: usize,
+        height: usize,
+        s: usize,
+    ) -> Vec<Vec<f32>> {
+        let mut scratch = vec![0.0; width * height];
+        self.plan.scales[s]
+            .derivatives
+            .iter()
+            .map(|f| {
+                let mut out = vec![0.0; width * height];
+                convolve_separable(gray, &mut out, &mut scratch, width, height, f);
+                out
+            })
+            .collect()
+    }
+
+    /// Harris responses R(σ_s, θ_n) of every scale and orientation.
+    pub fn responses(&self, gray: &[f32], width: usize, height: usize) -> ResponseStack {
+        let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
+        self.compute(&mut ws, gray, width, height);
+        ResponseStack {
+            responses: ws.responses.clone(),
+            width,
+            height,
+        }
+    }
+
+    /// Candidates surviving non-maximum suppression, sorted strongest first, and the threshold
+    /// finally used (raised ×4 until at most `candidate_capacity` survive, as on the GPU).
+    pub fn candidates(&self, gray: &[f32], width: usize, height: usize) -> (Vec<Candidate>, f32) {
+        let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
+        self.compute(&mut ws, gray, width, height);
+        let mut threshold = self.plan.config.threshold;
+        loop {
+            let mut found = suppress(&self.plan, &ws.responses, width, height, threshold);
+            if found.len() <= self.plan.config.candidate_capacity {
+                super::sort_candidates(&mut found);
+                return (found, threshold);
+            }
+            threshold = super::raised_threshold(threshold);
+        }
+    }
+
+    fn compute(&self, ws: &mut Workspace, gray: &[f32], width: usize, height: usize) {
+        let plan = &self.plan;
+        let n = width * height;
+        let planes = |count: usize| vec![vec![0.0f32; n]; count];
+        if ws.width != width || ws.height != height || ws.responses.len() != plan.scales.len() {
+            *ws = Workspace {
+                width,
+                height,
+                scratch: vec![0.0; n],
+                derivatives: planes(plan.derivative_count()),
+                product: vec![0.0; n],
+                blurred: planes(plan.products.len()),
+                responses: vec![vec![0.0; n * plan.orientations.len()]; plan.scales.len()],
+            };
+        }
+        let Workspace {
+            scratch,
+            derivatives,
+            product,
+            blurred,
+            responses,
+            ..
+        } = ws;
+        for (s, scale) in plan.scales.iter().enumerate() {
+            for (d, filter) in derivatives.iter_mut().zip(&scale.derivatives) {
+                convolve_separable(gray, d, scratch, width, height, filter);
+            }
+            for (q, &(j, k)) in blurred.iter_mut().zip(&plan.products) {
+                let (a, b) = (&derivatives[j], &derivatives[k]);
+                product
+                    .par_iter_mut()
+                    .zip(a.par_iter().zip(b.par_iter()))
+                    .for_each(|(p, (x, y))| *p = x * y);
+                convolve_columns(product, scratch, width, height, &scale.window);
+                convolve_rows(scratch, q, width, height, &scale.window);
+            }
+            tensor_responses(plan, blurred, &mut responses[s], n);
+        }
+    }
+}
+
+/// R = det M − k·tr² M for every orientation, M from the blurred products (eqs 7–8).
+fn tensor_responses(plan: &HarrisPlan, blurred: &[Vec<f32>], out: &mut [f32], plane: usize) {
+    let p = plan.products.len();
+    let k = plan.config.harris_k;
+    out.par_chunks_mut(plane)
+        .enumerate()
+        .for_each(|(t, r_plane)| {
+            let w = &plan.tensor_weights[t * 3 * p..(t + 1) * 3 * p];
+            r_plane
+                .par_chunks_mut(4096)
+                .enumerate()
+                .for_each(|(c, chunk)| {
+                    for (i, r) in chunk.iter_mut().enumerate() {
+                        let idx = c * 4096 + i;
+                        let (mut mxx, mut mxy, mut myy) = (0.0f32, 0.0f32, 0.0f32);
+                        for (q, plane_q) in blurred.iter().enumerate() {
+                            let v = plane_q[idx];
+                            mxx += w[q] * v;
+                            mxy += w[p + q] * v;
+                            myy += w[2 * p + q] * v;
+                        }
+                        *r = harris_response(mxx, mxy, myy, k);
+                    }
+                });
+        });
+}
+
+/// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each), threshold,
+/// border margin and a parabola fit per axis for the sub-pixel position.
+pub fn suppress(
+    plan: &HarrisPlan,
+    responses: &[Vec<f32>],
+    width: usize,
+    height: usize,
+    threshold: f32,
+) -> Vec<Candidate> {
+    let plane = width * height;
+    let scales = plan.scales.len();
+    let tasks: Vec<(usize, usize)> = (0..scales)
+        .flat_map(|s| (0..plan.orientations.len()).map(move |t| (s, t)))
+        .collect();
+    tasks
+        .par_iter()
+        .flat_map_iter(|&(s, t)| {
+            let m = plan.scales[s].margin as usize;
+            let at = |sc: usize, x: usize, y: usize| responses[sc][t * plane + y * width + x];
+            let mut out = Vec::new();
+            if width <= 2 * m || height <= 2 * m {
+                return out.into_iter();
+            }
+            for y in m..height - m {
+                for x in m..width - m {
+                    let v = at(s, x, y);
+                    if v.is_nan() || v <= threshold {
+                        continue;
+                    }
+                    let mut keep = true;
+                    'outer: for dy in 0..3 {
+                        for dx in 0..3 {
+                            let (nx, ny) = (x + dx - 1, y + dy - 1);
+                            if (dx != 1 || dy != 1) && at(s, nx, ny) >= v {
+                                keep = false;
+                                break 'outer;
+                            }
+                            if s > 0 && at(s - 1, nx, ny) > v {
+                                keep = false;
+                                break 'outer;
+                            }
+                            if s + 1 < scales && at(s + 1, nx, ny) > v {
+                                keep = false;
+                                break 'outer;
+                            }
+                        }
+                    }
+                    if keep {
+                        let ox = parabola_offset(at(s, x - 1, y), v, at(s, x + 1, y));
+                        let oy = parabola_offset(at(s, x, y - 1), v, at(s, x, y + 1));
+                        out.push(Candidate {
+                            x: x as f32 + ox,
+                            y: y as f32 + oy,
+                            response: v,
+                            packed: Candidate::pack(s, t),
+                        });
+                    }
+                }
+            }
+            out.into_iter()
+        })
+        .collect()
+}
+
+/// Offset of the vertex of the parabola through (−1, l), (0, c), (1, r), within ±0.5.
+#[inline]
+pub fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
+    let den = l - 2.0 * c + r;
+    if den < 0.0 {
+        (0.5 * (l - r) / den).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    }
+}

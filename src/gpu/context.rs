@@ -1,0 +1,116 @@
+//! The GPU context: instance, adapter, device and queue created once per process and shared.
+//! Pipelines are built once per context (see [`crate::gpu::pipelines`]).
+
+use std::sync::{Arc, OnceLock};
+
+use crate::error::{Error, Result};
+
+/// A wgpu device plus what we learned about it.
+pub struct GpuContext {
+    /// The adapter the device was created from.
+    pub adapter: wgpu::Adapter,
+    /// The logical device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Adapter name, backend, driver.
+    pub info: wgpu::AdapterInfo,
+    /// The limits the device was created with (the adapter's own).
+    pub limits: wgpu::Limits,
+    /// Whether timestamp queries are available for per-stage timings.
+    pub timestamps: bool,
+    pipelines: OnceLock<super::pipelines::Pipelines>,
+}
+
+static SHARED: OnceLock<Result<Arc<GpuContext>, String>> = OnceLock::new();
+
+impl GpuContext {
+    /// The process-wide context, created on first use. The Vulkan backend is preferred (see
+    /// WGPU.md: GL would find llvmpipe too); `WGPU_BACKEND` overrides it.
+    pub fn shared() -> Result<Arc<GpuContext>> {
+        SHARED
+            .get_or_init(|| Self::create().map(Arc::new).map_err(|e| e.to_string()))
+            .clone()
+            .map_err(Error::NoGpu)
+    }
+
+    /// Creates a new context (most callers want [`GpuContext::shared`]).
+    pub fn create() -> Result<Self> {
+        pollster::block_on(async {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = wgpu::Backends::PRIMARY;
+            let instance = wgpu::Instance::new(desc.with_env());
+            let adapter = instance
+                .request_adapter(&wgpu::RequestAdapterOptions {
+                    power_preference: wgpu::PowerPreference::HighPerformance,
+                    ..Default::default()
+                })
+                .await
+                .map_err(|e| Error::NoGpu(format!("no adapter found ({e})")))?;
+            let wanted = wgpu::Features::TIMESTAMP_QUERY;
+            let features = adapter.features() & wanted;
+            let limits = adapter.limits();
+            let (device, queue) = adapter
+                .request_device(&wgpu::DeviceDescriptor {
+                    label: Some("steernav"),
+                    required_features: features,
+                    required_limits: limits.clone(),
+                    ..Default::default()
+                })
+                .await
+                .map_err(|e| {
+                    Error::NoGpu(format!(
+                        "device request (features {features:?}, adapter limits) failed: {e}"
+                    ))
+                })?;
+            let info = adapter.get_info();
+            Ok(Self {
+                adapter,
+                device,
+                queue,
+                info,
+                limits,
+                timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
+                pipelines: OnceLock::new(),
+            })
+        })
+    }
+
+    /// The compute pipelines of this context, built on first use.
+    pub fn pipelines(&self) -> &super::pipelines::Pipelines {
+        self.pipelines
+            .get_or_init(|| super::pipelines::Pipelines::new(&self.device))
+    }
+
+    /// A human-readable report of the adapter and the limits that matter to steernav.
+    pub fn describe(&self) -> String {
+        let i = &self.info;
+        let l = &self.limits;
+        format!(
+            "adapter:  {}\nbackend:  {:?}\ntype:     {:?}\ndriver:   {} {}\nvendor:   0x{:04x} device 0x{:04x}\n\
+             max_storage_buffer_binding_size: {} MiB\nmax_buffer_size: {} MiB\n\
+             max_compute_invocations_per_workgroup: {}\nmax_compute_workgroup_storage_size: {} KiB\n\
+             max_compute_workgroups_per_dimension: {}\nmax_storage_buffers_per_shader_stage: {}\n\
+             timestamp queries: {}",
+            i.name,
+            i.backend,
+            i.device_type,
+            i.driver,
+            i.driver_info,
+            i.vendor,
+            i.device,
+            l.max_storage_buffer_binding_size / (1 << 20),
+            l.max_buffer_size / (1 << 20),
+            l.max_compute_invocations_per_workgroup,
+            l.max_compute_workgroup_storage_size / 1024,
+            l.max_compute_workgroups_per_dimension,
+            l.max_storage_buffers_per_shader_stage,
+            if self.timestamps { "yes" } else { "no" },
+        )
+    }
+}
+
+/// Whether the environment demands a GPU (CI sets `STEERNAV_REQUIRE_GPU=1`).
+pub fn gpu_required() -> bool {
+    std::env::var("STEERNAV_REQUIRE_GPU").is_ok_and(|v| v == "1" || v.eq_ignore_ascii_case("true"))
+}

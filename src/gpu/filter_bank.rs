@@ -1,0 +1,99 @@
+//! GPU steerable filter bank (eqs 3–4): basis responses by `convolve.wgsl`, steering by
+//! `steer.wgsl`. CPU twin: [`crate::features::filter_bank`]. An inspection API: it allocates
+//! per call, unlike the detector's per-size cache.
+
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::util::{bind, groups_2d, read_storage, storage, storage_init, uniform};
+use super::GpuContext;
+use crate::error::Result;
+use crate::features::filter_bank::steering_table;
+use crate::features::steerable::basis_filters;
+use crate::features::DetectorConfig;
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SteerParams {
+    width: u32,
+    height: u32,
+    plane: u32,
+    basis: u32,
+    orientations: u32,
+    pad: [u32; 3],
+}
+
+/// The N steered images F(θ_n) computed on the GPU.
+pub fn steered_images(
+    ctx: &Arc<GpuContext>,
+    config: &DetectorConfig,
+    gray: &[f32],
+    width: u32,
+    height: u32,
+) -> Result<Vec<Vec<f32>>> {
+    let device = &ctx.device;
+    let pipes = ctx.pipelines();
+    let plane = width * height;
+    let filters = basis_filters(config);
+    let b = filters.len() as u32;
+    let n = config.orientations as u32;
+    let mut taps: Vec<f32> = Vec::new();
+    let mut col_jobs = Vec::new();
+    let mut row_jobs = Vec::new();
+    for (i, f) in filters.iter().enumerate() {
+        col_jobs.push([0u32, i as u32, taps.len() as u32, f.column.radius() as u32]);
+        taps.extend(&f.column.taps);
+        row_jobs.push([i as u32, i as u32, taps.len() as u32, f.row.radius() as u32]);
+        taps.extend(&f.row.taps);
+    }
+    let taps = storage_init(device, "basis taps", &taps);
+    let col_jobs = storage_init(device, "basis column jobs", &col_jobs);
+    let row_jobs = storage_init(device, "basis row jobs", &row_jobs);
+    let dims = uniform(device, "dims", &[width, height, plane, 0u32]);
+    let gray_buf = storage_init(device, "gray", gray);
+    let tmp = storage(device, "column pass", plane as u64 * 4 * b as u64);
+    let basis = storage(device, "basis", plane as u64 * 4 * b as u64);
+    let steered = storage(device, "steered", plane as u64 * 4 * n as u64);
+    let coefs = storage_init(device, "steering", &steering_table(config));
+    let params = uniform(
+        device,
+        "steer",
+        &SteerParams {
+            width,
+            height,
+            plane,
+            basis: b,
+            orientations: n,
+            pad: [0; 3],
+        },
+    );
+    let g_cols = bind(
+        device,
+        &pipes.convolve_columns,
+        &[&dims, &col_jobs, &taps, &gray_buf, &tmp],
+    );
+    let g_rows = bind(
+        device,
+        &pipes.convolve_rows,
+        &[&dims, &row_jobs, &taps, &tmp, &basis],
+    );
+    let g_steer = bind(device, &pipes.steer, &[&params, &coefs, &basis, &steered]);
+    let (gx, gy) = groups_2d(width, height);
+    let mut enc = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipes.convolve_columns);
+        pass.set_bind_group(0, &g_cols, &[]);
+        pass.dispatch_workgroups(gx, gy, b);
+        pass.set_pipeline(&pipes.convolve_rows);
+        pass.set_bind_group(0, &g_rows, &[]);
+        pass.dispatch_workgroups(gx, gy, b);
+        pass.set_pipeline(&pipes.steer);
+        pass.set_bind_group(0, &g_steer, &[]);
+        pass.dispatch_workgroups(gx, gy, 1);
+    }
+    ctx.queue.submit([enc.finish()]);
+    let all = read_storage(device, &ctx.queue, &steered)?;
+    Ok(all.chunks(plane as usize).map(<[f32]>::to_vec).collect())
+}

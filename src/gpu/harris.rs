@@ -1,0 +1,650 @@
+//! GPU backend of the multiscale steered Harris stage (eqs 4–8): drives
+//! `shaders/{convolve,products,response,nms}.wgsl`. CPU twin: [`crate::features::harris`].
+//!
+//! Per frame: one upload of the luminance plane, every scale's passes recorded into one command
+//! encoder, one submission, then a readback of the candidate counter followed by exactly the
+//! surviving candidates. Buffers and bind groups are built once per image size and reused.
+
+use std::sync::{Arc, Mutex};
+
+use bytemuck::{Pod, Zeroable};
+
+use super::util::{bind, groups_2d, read_staging, staging, storage, storage_init, uniform};
+use super::GpuContext;
+use crate::error::{Error, Result};
+use crate::features::harris::ResponseStack;
+use crate::features::steerable::{HarrisPlan, Kernel1d};
+use crate::features::{raised_threshold, sort_candidates, Candidate};
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Dims {
+    width: u32,
+    height: u32,
+    plane: u32,
+    pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Job {
+    src: u32,
+    dst: u32,
+    taps: u32,
+    radius: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ResponseParams {
+    width: u32,
+    height: u32,
+    plane: u32,
+    products: u32,
+    orientations: u32,
+    k: f32,
+    pad: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct NmsParams {
+    width: u32,
+    height: u32,
+    plane: u32,
+    orientations: u32,
+    scale: u32,
+    has_prev: u32,
+    has_next: u32,
+    margin: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct NmsSettings {
+    threshold: f32,
+    capacity: u32,
+    pad: [u32; 2],
+}
+
+/// Offset and radius of one kernel in the taps buffer.
+#[derive(Clone, Copy)]
+struct TapRef {
+    offset: u32,
+    radius: u32,
+}
+
+/// GPU time per stage, summed over scales, from timestamp queries (absent without support).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GpuTimings {
+    /// Steered-gradient basis (derivative filters).
+    pub filter_bank_ms: f64,
+    /// Products and their window blur (structure tensor, eq 7).
+    pub structure_tensor_ms: f64,
+    /// Harris responses for all orientations (eq 8).
+    pub response_ms: f64,
+    /// Non-maximum suppression and compaction.
+    pub nms_ms: f64,
+}
+
+/// Bind groups and job counts of one scale.
+struct ScaleGroups {
+    derivative_columns: wgpu::BindGroup,
+    derivative_rows: wgpu::BindGroup,
+    products: wgpu::BindGroup,
+    blur_columns: wgpu::BindGroup,
+    blur_rows: wgpu::BindGroup,
+    response: wgpu::BindGroup,
+    nms: wgpu::BindGroup,
+}
+
+/// Everything allocated for one image size.
+struct FrameResources {
+    width: u32,
+    height: u32,
+    gray: wgpu::Buffer,
+    derivatives: wgpu::Buffer,
+    responses: Vec<wgpu::Buffer>,
+    nms_settings: wgpu::Buffer,
+    counter: wgpu::Buffer,
+    candidates: wgpu::Buffer,
+    counter_staging: wgpu::Buffer,
+    candidate_staging: wgpu::Buffer,
+    queries: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
+    scales: Vec<ScaleGroups>,
+}
+
+/// Number of image sizes whose buffers are kept at once.
+const CACHED_SIZES: usize = 3;
+
+/// The GPU Harris stage for one plan; safe to share between threads (frames are serialised).
+pub struct GpuHarris {
+    ctx: Arc<GpuContext>,
+    plan: HarrisPlan,
+    taps: wgpu::Buffer,
+    weights: wgpu::Buffer,
+    derivative_columns: Vec<Vec<TapRef>>,
+    derivative_rows: Vec<Vec<TapRef>>,
+    windows: Vec<TapRef>,
+    frames: Mutex<Vec<FrameResources>>,
+}
+
+impl GpuHarris {
+    /// Uploads the plan's kernels and weights.
+    pub fn new(ctx: Arc<GpuContext>, plan: HarrisPlan) -> Self {
+        let mut taps: Vec<f32> = Vec::new();
+        let mut push = |k: &Kernel1d| {
+            let r = TapRef {
+                offset: taps.len() as u32,
+                radius: k.radius() as u32,
+            };
+            taps.extend(&k.taps);
+            r
+        };
+        let mut derivative_columns = Vec::new();
+        let mut derivative_rows = Vec::new();
+        let mut windows = Vec::new();
+        for s in &plan.scales {
+            derivative_columns.push(s.derivatives.iter().map(|f| push(&f.column)).collect());
+            derivative_rows.push(s.derivatives.iter().map(|f| push(&f.row)).collect());
+            windows.push(push(&s.window));
+        }
+        let device = &ctx.device;
+        let taps = storage_init(device, "taps", &taps);
+        let weights = storage_init(device, "tensor weights", &plan.tensor_weights);
+        Self {
+            ctx,
+            plan,
+            taps,
+            weights,
+            derivative_columns,
+            derivative_rows,
+            windows,
+            frames: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// The context this stage runs on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Checks that a `width`×`height` frame fits the device's limits, naming the limit if not.
+    pub fn check_fits(&self, width: u32, height: u32) -> Result<()> {
+        let plane = width as u64 * height as u64 * 4;
+        let planes = [
+            (
+                "orientation responses of one scale",
+                self.plan.orientations.len() as u64,
+            ),
+            (
+                "blurred structure-tensor products",
+                self.plan.products.len() as u64,
+            ),
+        ];
+        let limits = &self.ctx.limits;
+        for (what, count) in planes {
+            let need = plane * count;
+            if need > limits.max_storage_buffer_binding_size as u64 || need > limits.max_buffer_size
+            {
+                return Err(Error::GpuLimit(format!(
+                    "a {width}x{height} image needs {} MiB for the {what} ({count} planes), but this \
+                     device ({}) allows max_storage_buffer_binding_size = {} MiB and \
+                     max_buffer_size = {} MiB; use --backend cpu or a smaller image",
+                    need >> 20,
+                    self.ctx.info.name,
+                    limits.max_storage_buffer_binding_size >> 20,
+                    limits.max_buffer_size >> 20
+                )));
+            }
+        }
+        let max_groups = limits.max_compute_workgroups_per_dimension;
+        let (gx, gy) = groups_2d(width, height);
+        if gx > max_groups || gy > max_groups {
+            return Err(Error::GpuLimit(format!(
+                "a {width}x{height} image needs {gx}x{gy} workgroups, over this device's \
+                 max_compute_workgroups_per_dimension = {max_groups}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Allocates (or finds) the buffers for a frame size; returns its index in the cache,
+    /// which it moves to the front.
+    fn frame_index(&self, frames: &mut Vec<FrameResources>, width: u32, height: u32) -> Result<()> {
+        if let Some(i) = frames
+            .iter()
+            .position(|f| f.width == width && f.height == height)
+        {
+            let f = frames.remove(i);
+            frames.insert(0, f);
+            return Ok(());
+        }
+        self.check_fits(width, height)?;
+        let f = self.allocate(width, height);
+        frames.insert(0, f);
+        frames.truncate(CACHED_SIZES);
+        Ok(())
+    }
+
+    fn allocate(&self, width: u32, height: u32) -> FrameResources {
+        let device = &self.ctx.device;
+        let pipes = self.ctx.pipelines();
+        let plan = &self.plan;
+        let plane = width as u64 * height as u64;
+        let count = plan.derivative_count();
+        let products = plan.products.len();
+        let n = plan.orientations.len();
+        let gray = storage(device, "gray", plane * 4);
+        let tmp = storage(
+            device,
+            "column pass",
+            plane * 4 * count.max(products) as u64,
+        );
+        let derivatives = storage(device, "derivatives", plane * 4 * count as u64);
+        let prod = storage(device, "products", plane * 4 * products as u64);
+        let responses: Vec<_> = (0..plan.scales.len())
+            .map(|_| storage(device, "responses", plane * 4 * n as u64))
+            .collect();
+        let capacity = plan.config.candidate_capacity as u64;
+        let counter = storage(device, "counter", 4);
+        let candidates = storage(device, "candidates", capacity * 16);
+        let queries = self.ctx.timestamps.then(|| {
+            let count = 8 * plan.scales.len() as u32;
+            let set = device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("stage timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count,
+            });
+            let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamp resolve"),
+                size: count as u64 * 8,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            (
+                set,
+                resolve,
+                staging(device, "timestamps", count as u64 * 8),
+            )
+        });
+        let counter_staging = staging(device, "counter readback", 4);
+        let candidate_staging = staging(device, "candidate readback", capacity * 16);
+        let dims = uniform(
+            device,
+            "dims",
+            &Dims {
+                width,
+                height,
+                plane: plane as u32,
+                pad: 0,
+            },
+        );
+        let product_params = uniform(
+            device,
+            "products",
+            &Dims {
+                width,
+                height,
+                plane: plane as u32,
+                pad: count as u32,
+            },
+        );
+        let response_params = uniform(
+            device,
+            "response",
+            &ResponseParams {
+                width,
+                height,
+                plane: plane as u32,
+                products: products as u32,
+                orientations: n as u32,
+                k: plan.config.harris_k,
+                pad: [0; 2],
+            },
+        );
+        let nms_settings = uniform(
+            device,
+            "nms settings",
+            &NmsSettings {
+                threshold: plan.config.threshold,
+                capacity: capacity as u32,
+                pad: [0; 2],
+            },
+        );
+        let jobs = |label: &str, list: Vec<Job>| storage_init(device, label, &list);
+        let scales = (0..plan.scales.len())
+            .map(|s| {
+                let dc = jobs(
+                    "derivative column jobs",
+                    self.derivative_columns[s]
+                        .iter()
+                        .enumerate()
+                        .map(|(k, t)| Job {
+                            src: 0,
+                            dst: k as u32,
+                            taps: t.offset,
+                            radius: t.radius,
+                        })
+                        .collect(),
+                );
+                let dr = jobs(
+                    "derivative row jobs",
+                    self.derivative_rows[s]
+                        .iter()
+                        .enumerate()
+                        .map(|(k, t)| Job {
+                            src: k as u32,
+                            dst: k as u32,
+                            taps: t.offset,
+                            radius: t.radius,
+                        })
+                        .collect(),
+                );
+                let w = self.windows[s];
+                let blur = jobs(
+                    "blur jobs",
+                    (0..products as u32)
+                        .map(|p| Job {
+                            src: p,
+                            dst: p,
+                            taps: w.offset,
+                            radius: w.radius,
+                        })
+                        .collect(),
+                );
+                let nms_params = uniform(
+                    device,
+                    "nms",
+                    &NmsParams {
+                        width,
+                        height,
+                        plane: plane as u32,
+                        orientations: n as u32,
+                        scale: s as u32,
+                        has_prev: (s > 0) as u32,
+                        has_next: (s + 1 < plan.scales.len()) as u32,
+                        margin: plan.scales[s].margin,
+                    },
+                );
+                let prev = &responses[s.saturating_sub(1)];
+                let next = &responses[(s + 1).min(plan.scales.len() - 1)];
+                ScaleGroups {
+                    derivative_columns: bind(
+                        device,
+                        &pipes.convolve_columns,
+                        &[&dims, &dc, &self.taps, &gray, &tmp],
+                    ),
+                    derivative_rows: bind(
+                        device,
+                        &pipes.convolve_rows,
+                        &[&dims, &dr, &self.taps, &tmp, &derivatives],
+                    ),
+                    products: bind(
+                        device,
+                        &pipes.products,
+                        &[&product_params, &derivatives, &prod],
+                    ),
+                    blur_columns: bind(
+                        device,
+                        &pipes.convolve_columns,
+                        &[&dims, &blur, &self.taps, &prod, &tmp],
+                    ),
+                    blur_rows: bind(
+                        device,
+                        &pipes.convolve_rows,
+                        &[&dims, &blur, &self.taps, &tmp, &prod],
+                    ),
+                    response: bind(
+                        device,
+                        &pipes.response,
+                        &[&response_params, &self.weights, &prod, &responses[s]],
+                    ),
+                    nms: bind(
+                        device,
+                        &pipes.nms,
+                        &[
+                            &nms_params,
+                            &nms_settings,
+                            prev,
+                            &responses[s],
+                            next,
+                            &counter,
+                            &candidates,
+                        ],
+                    ),
+                }
+            })
+            .collect();
+        FrameResources {
+            width,
+            height,
+            gray,
+            derivatives,
+            responses,
+            nms_settings,
+            counter,
+            candidates,
+            counter_staging,
+            candidate_staging,
+            queries,
+            scales,
+        }
+    }
+
+    /// Records the filter, tensor and response passes of every scale (up to scale `last`,
+    /// stopping after the derivative passes of `last` when `derivatives_only`).
+    fn encode_responses(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        f: &FrameResources,
+        last: usize,
+        derivatives_only: bool,
+    ) {
+        let pipes = self.ctx.pipelines();
+        let (gx, gy) = groups_2d(f.width, f.height);
+        let count = self.plan.derivative_count() as u32;
+        let products = self.plan.products.len() as u32;
+        for (s, g) in f.scales.iter().enumerate().take(last + 1) {
+            let stamp = |i: u32| {
+                f.queries
+                    .as_ref()
+                    .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: Some(8 * s as u32 + 2 * i),
+                        end_of_pass_write_index: Some(8 * s as u32 + 2 * i + 1),
+                    })
+            };
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("filter bank"),
+                    timestamp_writes: stamp(0),
+                });
+                pass.set_pipeline(&pipes.convolve_columns);
+                pass.set_bind_group(0, &g.derivative_columns, &[]);
+                pass.dispatch_workgroups(gx, gy, count);
+                pass.set_pipeline(&pipes.convolve_rows);
+                pass.set_bind_group(0, &g.derivative_rows, &[]);
+                pass.dispatch_workgroups(gx, gy, count);
+            }
+            if derivatives_only && s == last {
+                return;
+            }
+            {
+                let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("structure tensor"),
+                    timestamp_writes: stamp(1),
+                });
+                pass.set_pipeline(&pipes.products);
+                pass.set_bind_group(0, &g.products, &[]);
+                pass.dispatch_workgroups(gx, gy, 1);
+                pass.set_pipeline(&pipes.convolve_columns);
+                pass.set_bind_group(0, &g.blur_columns, &[]);
+                pass.dispatch_workgroups(gx, gy, products);
+                pass.set_pipeline(&pipes.convolve_rows);
+                pass.set_bind_group(0, &g.blur_rows, &[]);
+                pass.dispatch_workgroups(gx, gy, products);
+            }
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("response"),
+                timestamp_writes: stamp(2),
+            });
+            pass.set_pipeline(&pipes.response);
+            pass.set_bind_group(0, &g.response, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+    }
+
+    fn encode_nms(&self, enc: &mut wgpu::CommandEncoder, f: &FrameResources) {
+        let pipes = self.ctx.pipelines();
+        let (gx, gy) = groups_2d(f.width, f.height);
+        enc.clear_buffer(&f.counter, 0, None);
+        for (s, g) in f.scales.iter().enumerate() {
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("nms"),
+                timestamp_writes: f.queries.as_ref().map(|(set, _, _)| {
+                    wgpu::ComputePassTimestampWrites {
+                        query_set: set,
+                        beginning_of_pass_write_index: Some(8 * s as u32 + 6),
+                        end_of_pass_write_index: Some(8 * s as u32 + 7),
+                    }
+                }),
+            });
+            pass.set_pipeline(&pipes.nms);
+            pass.set_bind_group(0, &g.nms, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        enc.copy_buffer_to_buffer(&f.counter, 0, &f.counter_staging, 0, None);
+    }
+
+    fn upload(&self, f: &FrameResources, gray: &[f32]) {
+        self.ctx
+            .queue
+            .write_buffer(&f.gray, 0, bytemuck::cast_slice(gray));
+    }
+
+    fn set_threshold(&self, f: &FrameResources, threshold: f32) {
+        let settings = NmsSettings {
+            threshold,
+            capacity: self.plan.config.candidate_capacity as u32,
+            pad: [0; 2],
+        };
+        self.ctx
+            .queue
+            .write_buffer(&f.nms_settings, 0, bytemuck::bytes_of(&settings));
+    }
+
+    /// Runs the whole stage on a luminance plane: candidates sorted strongest first, the
+    /// threshold finally used, and per-stage GPU timings.
+    pub fn candidates(
+        &self,
+        gray: &[f32],
+        width: u32,
+        height: u32,
+    ) -> Result<(Vec<Candidate>, f32, Option<GpuTimings>)> {
+        let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+        self.frame_index(&mut frames, width, height)?;
+        let f = &frames[0];
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        self.upload(f, gray);
+        let mut threshold = self.plan.config.threshold;
+        self.set_threshold(f, threshold);
+        let mut enc = device.create_command_encoder(&Default::default());
+        self.encode_responses(&mut enc, f, self.plan.scales.len() - 1, false);
+        self.encode_nms(&mut enc, f);
+        if let Some((set, resolve, stage)) = &f.queries {
+            enc.resolve_query_set(set, 0..8 * self.plan.scales.len() as u32, resolve, 0);
+            enc.copy_buffer_to_buffer(resolve, 0, stage, 0, None);
+        }
+        queue.submit([enc.finish()]);
+        let mut count = read_count(device, f)?;
+        let timings = match &f.queries {
+            Some((_, _, stage)) => Some(self.timings(&read_staging(device, stage, stage.size())?)),
+            None => None,
+        };
+        let capacity = self.plan.config.candidate_capacity;
+        while count > capacity {
+            threshold = raised_threshold(threshold);
+            self.set_threshold(f, threshold);
+            let mut enc = device.create_command_encoder(&Default::default());
+            self.encode_nms(&mut enc, f);
+            queue.submit([enc.finish()]);
+            count = read_count(device, f)?;
+        }
+        let bytes = count as u64 * 16;
+        let mut enc = device.create_command_encoder(&Default::default());
+        if bytes > 0 {
+            enc.copy_buffer_to_buffer(&f.candidates, 0, &f.candidate_staging, 0, bytes);
+        }
+        queue.submit([enc.finish()]);
+        let raw = read_staging(device, &f.candidate_staging, bytes)?;
+        let mut list: Vec<Candidate> = bytemuck::pod_collect_to_vec(&raw);
+        sort_candidates(&mut list);
+        Ok((list, threshold, timings))
+    }
+
+    fn timings(&self, raw: &[u8]) -> GpuTimings {
+        let stamps: Vec<u64> = bytemuck::pod_collect_to_vec(raw);
+        let period = self.ctx.queue.get_timestamp_period() as f64 * 1e-6;
+        let mut t = GpuTimings::default();
+        for s in 0..self.plan.scales.len() {
+            let span = |i: usize| {
+                stamps[8 * s + 2 * i + 1].saturating_sub(stamps[8 * s + 2 * i]) as f64 * period
+            };
+            t.filter_bank_ms += span(0);
+            t.structure_tensor_ms += span(1);
+            t.response_ms += span(2);
+            t.nms_ms += span(3);
+        }
+        t
+    }
+
+    /// The scale-normalised derivative planes D_k of scale `s` (parity tests, inspection).
+    pub fn derivatives(
+        &self,
+        gray: &[f32],
+        width: u32,
+        height: u32,
+        s: usize,
+    ) -> Result<Vec<Vec<f32>>> {
+        let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+        self.frame_index(&mut frames, width, height)?;
+        let f = &frames[0];
+        self.upload(f, gray);
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_responses(&mut enc, f, s, true);
+        self.ctx.queue.submit([enc.finish()]);
+        let all = super::util::read_storage(&self.ctx.device, &self.ctx.queue, &f.derivatives)?;
+        Ok(all
+            .chunks(width as usize * height as usize)
+            .map(<[f32]>::to_vec)
+            .collect())
+    }
+
+    /// Harris responses of every scale and orientation (parity tests, inspection).
+    pub fn responses(&self, gray: &[f32], width: u32, height: u32) -> Result<ResponseStack> {
+        let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+        self.frame_index(&mut frames, width, height)?;
+        let f = &frames[0];
+        self.upload(f, gray);
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_responses(&mut enc, f, self.plan.scales.len() - 1, false);
+        self.ctx.queue.submit([enc.finish()]);
+        let responses = f
+            .responses
+            .iter()
+            .map(|b| super::util::read_storage(&self.ctx.device, &self.ctx.queue, b))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(ResponseStack {
+            responses,
+            width: width as usize,
+            height: height as usize,
+        })
+    }
+}
+
+fn read_count(device: &wgpu::Device, f: &FrameResources) -> Result<usize> {
+    let raw = read_staging(device, &f.counter_staging, 4)?;
+    Ok(u32::from_le_bytes([raw[0], raw[1], raw[2], raw[3]]) as usize)
+}

@@ -1,0 +1,123 @@
+//! Small helpers for buffers, bind groups and readback shared by every GPU stage.
+
+use wgpu::util::DeviceExt;
+
+use crate::error::{Error, Result};
+
+/// A storage buffer of `bytes` bytes (at least 4), readable by copies.
+pub fn storage(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(4).next_multiple_of(4),
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A read-only storage buffer initialised with `data`.
+pub fn storage_init<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    label: &str,
+    data: &[T],
+) -> wgpu::Buffer {
+    let bytes: &[u8] = bytemuck::cast_slice(data);
+    let padded;
+    let contents = if bytes.is_empty() {
+        padded = [0u8; 4];
+        &padded[..]
+    } else {
+        bytes
+    };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+/// A uniform buffer initialised with `value`.
+pub fn uniform<T: bytemuck::Pod>(device: &wgpu::Device, label: &str, value: &T) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::bytes_of(value),
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+    })
+}
+
+/// A MAP_READ staging buffer.
+pub fn staging(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes.max(4).next_multiple_of(4),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// A bind group for group 0 of `pipeline`, binding `buffers[i]` at binding i.
+pub fn bind(
+    device: &wgpu::Device,
+    pipeline: &wgpu::ComputePipeline,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
+/// Maps the first `bytes` bytes of a staging buffer (after the submission that filled it),
+/// copies them out and unmaps.
+pub fn read_staging(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+    if bytes == 0 {
+        return Ok(Vec::new());
+    }
+    let slice = buffer.slice(..bytes);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Gpu(format!("poll failed: {e}")))?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("map callback never ran".into()))?
+        .map_err(|e| Error::Gpu(format!("mapping the readback buffer failed: {e}")))?;
+    let data = slice
+        .get_mapped_range()
+        .map_err(|e| Error::Gpu(format!("mapped range: {e}")))?
+        .to_vec();
+    buffer.unmap();
+    Ok(data)
+}
+
+/// Reads a whole storage buffer back (tests and inspection; the detector reads back only its
+/// candidate list).
+pub fn read_storage(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buffer: &wgpu::Buffer,
+) -> Result<Vec<f32>> {
+    let stage = staging(device, "inspect", buffer.size());
+    let mut enc = device.create_command_encoder(&Default::default());
+    enc.copy_buffer_to_buffer(buffer, 0, &stage, 0, None);
+    queue.submit([enc.finish()]);
+    let bytes = read_staging(device, &stage, buffer.size())?;
+    Ok(bytemuck::pod_collect_to_vec(&bytes))
+}
+
+/// Workgroups of 16×16 covering a `width`×`height` plane.
+pub fn groups_2d(width: u32, height: u32) -> (u32, u32) {
+    (width.div_ceil(16), height.div_ceil(16))
+}
