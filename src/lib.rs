@@ -22,3 +22,5 @@ pub mod image;
 pub use error::{Error, Result};
 pub use features::{Backend, Detection, Detector, DetectorConfig, Keypoint};
 pub use image::Frame;
+pub mod eval;
+pub mod synth;

@@ -53,11 +53,15 @@ pub struct DetectorConfig {
     pub sigma0: f32,
     /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default 1.4.
     pub scale_step: f32,
+    /// Exponent p of the scale normalisation: every derivative plane D_k is multiplied by
+    /// σ_e^p (σ_e the effective scale) before the structure tensor, so R scales with σ_e^(4p).
+    /// Default 2.0.
+    pub scale_normalization: f32,
     /// Integration-window ratio γ (σ_I = γ·σ_D, eq 7). Default 1.5.
     pub gamma: f32,
     /// Harris constant k of eq 8. Default 0.04.
     pub harris_k: f32,
-    /// Minimum scale-normalised Harris response of a candidate. Default 1e-5.
+    /// Minimum scale-normalised Harris response of a candidate. Default 1e-8.
     pub threshold: f32,
     /// Kernels are truncated at this many standard deviations. Default 3.0.
     pub truncate: f32,
@@ -83,9 +87,10 @@ impl Default for DetectorConfig {
             scales: 5,
             sigma0: 1.0,
             scale_step: 1.4,
+            scale_normalization: 2.0,
             gamma: 1.5,
             harris_k: 0.04,
-            threshold: 1e-5,
+            threshold: 1e-8,
             truncate: 3.0,
             merge: MergeMode::Covariant,
             merge_radius: 2.0,
@@ -123,6 +128,14 @@ impl DetectorConfig {
             if !v.is_finite() || v <= 0.0 {
                 return bad(field, v, "must be a finite number > 0");
             }
+        }
+        if !self.scale_normalization.is_finite() || !(0.0..=4.0).contains(&self.scale_normalization)
+        {
+            return bad(
+                "scale_normalization",
+                self.scale_normalization,
+                "must be finite, in [0, 4]",
+            );
         }
         if !self.scale_step.is_finite() || self.scale_step <= 1.0 {
             return bad("scale_step", self.scale_step, "must be a finite number > 1");

@@ -127,7 +127,7 @@ pub struct ScalePlan {
     pub sigma_d: f32,
     /// Integration scale σ_I.
     pub sigma_i: f32,
-    /// The n+2 derivative filters D_k at σ_e, scale-normalised by σ_e^(n+1).
+    /// The n+2 derivative filters D_k at σ_e, scale-normalised by σ_e^p.
     pub derivatives: Vec<Separable>,
     /// The integration window w(σ_I) (eq 7), used along both axes.
     pub window: Kernel1d,
@@ -186,7 +186,7 @@ impl HarrisPlan {
             .map(|s| {
                 let sigma_d = config.sigma_d(s);
                 let sigma_e = (sigma_d * sigma_d + config.basis_sigma * config.basis_sigma).sqrt();
-                let norm = sigma_e.powi(m as i32);
+                let norm = sigma_e.powf(config.scale_normalization);
                 let derivatives = (0..count)
                     .map(|k| Separable {
                         column: Kernel1d::gaussian_derivative(sigma_e, k, config.truncate),
