@@ -22,5 +22,8 @@ pub mod image;
 pub use error::{Error, Result};
 pub use features::{Backend, Detection, Detector, DetectorConfig, Keypoint};
 pub use image::Frame;
+pub mod batch;
+pub mod draw;
 pub mod eval;
+pub mod output;
 pub mod synth;

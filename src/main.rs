@@ -1,1 +1,281 @@
-fn main() {}
+//! The `steernav` command line: detect, batch, info.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use steernav::batch::{self, BatchOptions, Outcome};
+use steernav::features::{BasisOrder, MergeMode};
+use steernav::output::{write_atomic, ImageKeypoints};
+use steernav::{Backend, Detection, Detector, DetectorConfig, Frame};
+
+/// GPU-accelerated rotation-invariant keypoints (steerable filters + multiscale Harris).
+#[derive(Parser)]
+#[command(name = "steernav", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Detect keypoints on one or more images; JSON (or CSV) on stdout or one file per image.
+    Detect(DetectCmd),
+    /// Detect on every image under a directory (recursive), one JSON per image + summary.csv.
+    Batch(BatchCmd),
+    /// Print the GPU adapter, backend, driver and the limits that matter.
+    Info,
+}
+
+/// Detector settings shared by every command that detects.
+#[derive(Args, Clone)]
+struct DetectorArgs {
+    /// Where the image work runs: auto (GPU if an adapter exists, else CPU with a warning), gpu, cpu.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    backend: Backend,
+    /// TOML file with detector settings (a [detector] table; see README); flags override it.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Number of steered orientations N, spread over [0°, 180°) [default: 8].
+    #[arg(long, value_name = "N")]
+    orientations: Option<usize>,
+    /// Number of detection scales S (σ_D = 1.0 · 1.4^s) [default: 5].
+    #[arg(long, value_name = "S")]
+    scales: Option<usize>,
+    /// Keep at most K keypoints, the strongest [default: 500].
+    #[arg(long, value_name = "K")]
+    max_keypoints: Option<usize>,
+    /// Order of the steered Gaussian-derivative basis [default: second].
+    #[arg(long, value_enum)]
+    basis: Option<BasisOrder>,
+    /// How detections of all orientations and scales are merged [default: covariant].
+    #[arg(long, value_enum)]
+    merge: Option<MergeMode>,
+    /// Minimum scale-normalised Harris response of a candidate [default: 1e-8].
+    #[arg(long, value_name = "R")]
+    threshold: Option<f32>,
+}
+
+impl DetectorArgs {
+    fn config(&self) -> anyhow::Result<DetectorConfig> {
+        let mut cfg = match &self.config {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .with_context(|| format!("{}: cannot read config", path.display()))?;
+                DetectorConfig::from_toml_str(&text).map_err(|reason| {
+                    anyhow::anyhow!("{}: malformed config: {reason}", path.display())
+                })?
+            }
+            None => DetectorConfig::default(),
+        };
+        if let Some(v) = self.orientations {
+            cfg.orientations = v;
+        }
+        if let Some(v) = self.scales {
+            cfg.scales = v;
+        }
+        if let Some(v) = self.max_keypoints {
+            cfg.max_keypoints = v;
+        }
+        if let Some(v) = self.basis {
+            cfg.basis = v;
+        }
+        if let Some(v) = self.merge {
+            cfg.merge = v;
+        }
+        if let Some(v) = self.threshold {
+            cfg.threshold = v;
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    fn detector(&self) -> anyhow::Result<Detector> {
+        Ok(Detector::new(&self.config()?, self.backend)?)
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Format {
+    Json,
+    Csv,
+}
+
+#[derive(Args)]
+struct DetectCmd {
+    /// Input images (PNG, JPEG, PPM/PGM, TIFF, BMP).
+    #[arg(required = true, value_name = "IMAGE")]
+    images: Vec<PathBuf>,
+    #[command(flatten)]
+    detector: DetectorArgs,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Json)]
+    format: Format,
+    /// Write one file per image (<name>.json or .csv) into DIR instead of stdout.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Also write <name>_keypoints.png (circles of radius 3σ_D, orientation ticks) into --out or the current directory.
+    #[arg(long)]
+    draw: bool,
+}
+
+#[derive(Args)]
+struct BatchCmd {
+    /// Directory searched recursively for images.
+    input: PathBuf,
+    /// Output directory: one <image>.json per image (mirroring the input tree) and summary.csv.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    #[command(flatten)]
+    detector: DetectorArgs,
+    /// Redo images whose JSON already exists (by default a re-run skips them).
+    #[arg(long)]
+    force: bool,
+    /// Also write a PNG with the keypoints next to each JSON.
+    #[arg(long)]
+    draw: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Detect(cmd) => detect(cmd),
+        Command::Batch(cmd) => run_batch(cmd),
+        Command::Info => info(),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
+    let scales: Vec<String> = detector
+        .plan()
+        .scales
+        .iter()
+        .zip(&d.scale_histogram)
+        .map(|(s, n)| format!("σ{:.2}:{n}", s.sigma_d))
+        .collect();
+    let t = &d.timings;
+    format!(
+        "{}: {} keypoints from {} candidates on {} (harris {:.1} ms, merge {:.1} ms, descriptors {:.1} ms); keypoints per scale {}",
+        image.display(),
+        d.keypoints.len(),
+        d.candidates,
+        d.backend,
+        t.harris_ms,
+        t.merge_ms,
+        t.descriptor_ms,
+        scales.join(" ")
+    )
+}
+
+fn stem(path: &Path) -> String {
+    path.file_stem()
+        .map_or_else(|| "image".into(), |s| s.to_string_lossy().into_owned())
+}
+
+fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
+    if cmd.images.len() > 1 && cmd.out.is_none() && cmd.format == Format::Csv {
+        bail!("several images with --format csv need --out DIR (one CSV per image)");
+    }
+    let detector = cmd.detector.detector()?;
+    let scales: Vec<f32> = detector.plan().scales.iter().map(|s| s.sigma_d).collect();
+    let mut failed = 0;
+    for path in &cmd.images {
+        let run = || -> anyhow::Result<()> {
+            let frame = Frame::load(path)?;
+            let d = detector
+                .detect(&frame)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            eprintln!("{}", summary_line(path, &d, &detector));
+            let record = ImageKeypoints {
+                image: path.display().to_string(),
+                width: frame.width,
+                height: frame.height,
+                backend: d.backend.to_string(),
+                keypoints: d.keypoints,
+            };
+            let text = match cmd.format {
+                Format::Json => record.to_json(),
+                Format::Csv => record.to_csv(),
+            };
+            let ext = if cmd.format == Format::Json {
+                "json"
+            } else {
+                "csv"
+            };
+            match &cmd.out {
+                Some(dir) => {
+                    write_atomic(&dir.join(format!("{}.{ext}", stem(path))), text.as_bytes())?
+                }
+                None => println!("{}", text.trim_end()),
+            }
+            if cmd.draw {
+                let dir = cmd.out.clone().unwrap_or_else(|| PathBuf::from("."));
+                let png = dir.join(format!("{}_keypoints.png", stem(path)));
+                steernav::draw::write_png(&png, &frame, &record.keypoints, &scales)?;
+                eprintln!("wrote {}", png.display());
+            }
+            Ok(())
+        };
+        if let Err(e) = run() {
+            eprintln!("error: {e:#}");
+            failed += 1;
+        }
+    }
+    Ok(if failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
+    let detector = cmd.detector.detector()?;
+    let opts = BatchOptions {
+        input: cmd.input,
+        output: cmd.out,
+        force: cmd.force,
+        draw: cmd.draw,
+        progress: true,
+    };
+    let entries = batch::run(&detector, &opts)?;
+    let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
+    let done = count(|o| matches!(o, Outcome::Done { .. }));
+    let skipped = count(|o| matches!(o, Outcome::Skipped));
+    let failed = count(|o| matches!(o, Outcome::Failed(_)));
+    eprintln!(
+        "{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed; summary in {}",
+        opts.output.join("summary.csv").display()
+    );
+    Ok(if failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn info() -> anyhow::Result<ExitCode> {
+    println!("steernav {}", env!("CARGO_PKG_VERSION"));
+    println!("cpu threads: {}", rayon::current_num_threads());
+    match steernav::gpu::GpuContext::shared() {
+        Ok(ctx) => {
+            println!("{}", ctx.describe());
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e) => {
+            println!("gpu: none ({e}); --backend auto will use the CPU");
+            Ok(if steernav::gpu::gpu_required() {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            })
+        }
+    }
+}

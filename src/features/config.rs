@@ -205,9 +205,15 @@ impl DetectorConfig {
         self.gamma * self.sigma_d(s)
     }
 
-    /// Candidates closer than this to the border are dropped at scale `s`: 2σ_D, at least 2 px,
-    /// where clamped borders would otherwise invent structure.
+    /// Effective scale σ_e = √(σ_D² + σ_b²) of the derivative filters of scale `s`.
+    pub fn sigma_e(&self, s: usize) -> f32 {
+        self.sigma_d(s).hypot(self.basis_sigma)
+    }
+
+    /// Candidates closer than this to the border are dropped at scale `s`: the radius of the
+    /// derivative filters (truncate·σ_e, at least 2 px), so that no candidate rests on the
+    /// structure that clamped borders invent (an oblique edge bends where the border clamps).
     pub fn margin(&self, s: usize) -> u32 {
-        (2.0 * self.sigma_d(s)).ceil().max(2.0) as u32
+        (self.truncate * self.sigma_e(s)).ceil().max(2.0) as u32
     }
 }

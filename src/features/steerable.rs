@@ -185,7 +185,7 @@ impl HarrisPlan {
         let scales = (0..config.scales)
             .map(|s| {
                 let sigma_d = config.sigma_d(s);
-                let sigma_e = (sigma_d * sigma_d + config.basis_sigma * config.basis_sigma).sqrt();
+                let sigma_e = config.sigma_e(s);
                 let norm = sigma_e.powf(config.scale_normalization);
                 let derivatives = (0..count)
                     .map(|k| Separable {

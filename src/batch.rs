@@ -1,0 +1,266 @@
+//! Batch detection over a directory tree: images decoded on CPU threads while the detector
+//! (GPU or CPU) works, one JSON per image written atomically, a summary CSV, re-runs skip what
+//! is done, unreadable files are reported and skipped without stopping the batch.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::sync_channel;
+use std::time::Instant;
+
+use crate::error::{Error, Result};
+use crate::features::Detector;
+use crate::image::Frame;
+use crate::output::{write_atomic, ImageKeypoints};
+
+/// File extensions the batch picks up (case-insensitive).
+pub const IMAGE_EXTENSIONS: [&str; 9] = [
+    "png", "jpg", "jpeg", "ppm", "pgm", "pnm", "tif", "tiff", "bmp",
+];
+
+/// Whether a path looks like an image the batch should process.
+pub fn is_image(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+}
+
+/// Every image under `dir`, recursively, sorted by path.
+pub fn list_images(dir: &Path) -> Result<Vec<PathBuf>> {
+    if !dir.is_dir() {
+        return Err(Error::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "not a directory"),
+        });
+    }
+    let mut out: Vec<PathBuf> = walkdir::WalkDir::new(dir)
+        .follow_links(true)
+        .into_iter()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_type().is_file() && is_image(e.path()))
+        .map(|e| e.into_path())
+        .collect();
+    out.sort();
+    Ok(out)
+}
+
+/// What happened to one image.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    /// Detected now.
+    Done {
+        /// Image size.
+        width: u32,
+        /// Image size.
+        height: u32,
+        /// Keypoints written.
+        keypoints: usize,
+        /// Harris candidates before the merge.
+        candidates: usize,
+        /// Backend that ran.
+        backend: &'static str,
+        /// Wall-clock time of the detection.
+        ms: f64,
+    },
+    /// Its output existed and `force` was off.
+    Skipped,
+    /// It could not be read, decoded or processed.
+    Failed(String),
+}
+
+/// One row of the summary.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Entry {
+    /// The input image.
+    pub image: PathBuf,
+    /// Its JSON output.
+    pub output: PathBuf,
+    /// What happened.
+    pub outcome: Outcome,
+}
+
+/// Options of a batch run.
+#[derive(Clone, Debug)]
+pub struct BatchOptions {
+    /// Directory searched recursively for images.
+    pub input: PathBuf,
+    /// Directory receiving one JSON per image (mirroring the input tree) and `summary.csv`.
+    pub output: PathBuf,
+    /// Redo images whose output already exists.
+    pub force: bool,
+    /// Also write a PNG with the keypoints drawn next to each JSON.
+    pub draw: bool,
+    /// Show a progress bar on stderr.
+    pub progress: bool,
+}
+
+fn output_path(opts: &BatchOptions, image: &Path) -> PathBuf {
+    let rel = image.strip_prefix(&opts.input).unwrap_or(image);
+    let mut name = rel.as_os_str().to_owned();
+    name.push(".json");
+    opts.output.join(name)
+}
+
+/// Runs the batch; returns every entry (in input order). Failures of single images are in the
+/// entries, not errors; an error means the batch itself could not run (e.g. no input dir).
+pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
+    let images = list_images(&opts.input)?;
+    std::fs::create_dir_all(&opts.output).map_err(|source| Error::Io {
+        path: opts.output.clone(),
+        source,
+    })?;
+    let bar = if opts.progress {
+        indicatif::ProgressBar::new(images.len() as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} images  {per_sec}  ETA {eta}  {msg}",
+        )
+        .expect("valid template"),
+    );
+    let mut entries: Vec<Option<Entry>> = vec![None; images.len()];
+    let todo: Vec<usize> = (0..images.len())
+        .filter(|&i| {
+            let out = output_path(opts, &images[i]);
+            if !opts.force && out.exists() {
+                entries[i] = Some(Entry {
+                    image: images[i].clone(),
+                    output: out,
+                    outcome: Outcome::Skipped,
+                });
+                bar.inc(1);
+                false
+            } else {
+                true
+            }
+        })
+        .collect();
+    let decoders = std::thread::available_parallelism().map_or(1, |n| n.get().div_ceil(2));
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = sync_channel::<(usize, Result<Frame>)>(4);
+    std::thread::scope(|scope| {
+        for _ in 0..decoders {
+            let tx = tx.clone();
+            let (next, todo, images) = (&next, &todo, &images);
+            scope.spawn(move || loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&i) = todo.get(k) else { break };
+                if tx.send((i, Frame::load(&images[i]))).is_err() {
+                    break;
+                }
+            });
+        }
+        drop(tx);
+        for (i, frame) in rx {
+            let image = images[i].clone();
+            let output = output_path(opts, &image);
+            let outcome = match frame.and_then(|f| detect_one(detector, opts, &image, &output, &f))
+            {
+                Ok(o) => o,
+                Err(e) => {
+                    bar.println(format!("error: {e}"));
+                    Outcome::Failed(e.to_string())
+                }
+            };
+            bar.inc(1);
+            entries[i] = Some(Entry {
+                image,
+                output,
+                outcome,
+            });
+        }
+    });
+    bar.finish_and_clear();
+    let entries: Vec<Entry> = entries
+        .into_iter()
+        .map(|e| e.expect("every image has an entry"))
+        .collect();
+    write_atomic(
+        &opts.output.join("summary.csv"),
+        summary_csv(&entries).as_bytes(),
+    )?;
+    Ok(entries)
+}
+
+fn detect_one(
+    detector: &Detector,
+    opts: &BatchOptions,
+    image: &Path,
+    output: &Path,
+    frame: &Frame,
+) -> Result<Outcome> {
+    let t = Instant::now();
+    let d = detector.detect(frame).map_err(|e| match e {
+        Error::ImageSize {
+            width,
+            height,
+            reason,
+            ..
+        } => Error::ImageSize {
+            input: image.display().to_string(),
+            width,
+            height,
+            reason,
+        },
+        other => other,
+    })?;
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    let record = ImageKeypoints {
+        image: image.display().to_string(),
+        width: frame.width,
+        height: frame.height,
+        backend: d.backend.to_string(),
+        keypoints: d.keypoints,
+    };
+    write_atomic(output, record.to_json().as_bytes())?;
+    if opts.draw {
+        let scales: Vec<f32> = detector.plan().scales.iter().map(|s| s.sigma_d).collect();
+        crate::draw::write_png(
+            &output.with_extension("png"),
+            frame,
+            &record.keypoints,
+            &scales,
+        )?;
+    }
+    Ok(Outcome::Done {
+        width: frame.width,
+        height: frame.height,
+        keypoints: record.keypoints.len(),
+        candidates: d.candidates,
+        backend: d.backend,
+        ms,
+    })
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The summary CSV: one row per image.
+pub fn summary_csv(entries: &[Entry]) -> String {
+    let mut s = String::from("image,status,width,height,keypoints,candidates,backend,ms,error\n");
+    for e in entries {
+        let img = csv_field(&e.image.display().to_string());
+        let row = match &e.outcome {
+            Outcome::Done {
+                width,
+                height,
+                keypoints,
+                candidates,
+                backend,
+                ms,
+            } => {
+                format!("{img},done,{width},{height},{keypoints},{candidates},{backend},{ms:.2},\n")
+            }
+            Outcome::Skipped => format!("{img},skipped,,,,,,,\n"),
+            Outcome::Failed(msg) => format!("{img},failed,,,,,,,{}\n", csv_field(msg)),
+        };
+        s.push_str(&row);
+    }
+    s
+}

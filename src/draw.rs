@@ -1,0 +1,86 @@
+//! Pictures of keypoints: a circle of radius 3σ_D around each keypoint and a tick along its
+//! dominant steered orientation, coloured by detection scale, drawn over the image.
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::features::Keypoint;
+use crate::image::Frame;
+
+const PALETTE: [[u8; 3]; 6] = [
+    [255, 64, 64],
+    [255, 200, 0],
+    [64, 220, 64],
+    [0, 200, 255],
+    [200, 80, 255],
+    [255, 255, 255],
+];
+
+fn put(img: &mut image::RgbImage, x: i64, y: i64, c: [u8; 3]) {
+    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
+        img.put_pixel(x as u32, y as u32, image::Rgb(c));
+    }
+}
+
+fn line(img: &mut image::RgbImage, (x0, y0): (f32, f32), (x1, y1): (f32, f32), c: [u8; 3]) {
+    let steps = (x1 - x0).abs().max((y1 - y0).abs()).ceil().max(1.0) as usize;
+    for i in 0..=steps {
+        let t = i as f32 / steps as f32;
+        put(
+            img,
+            (x0 + t * (x1 - x0)).round() as i64,
+            (y0 + t * (y1 - y0)).round() as i64,
+            c,
+        );
+    }
+}
+
+fn circle(img: &mut image::RgbImage, (cx, cy): (f32, f32), r: f32, c: [u8; 3]) {
+    let steps = (2.0 * std::f32::consts::PI * r).ceil().max(8.0) as usize;
+    for i in 0..steps {
+        let a = i as f32 / steps as f32 * std::f32::consts::TAU;
+        put(
+            img,
+            (cx + r * a.cos()).round() as i64,
+            (cy + r * a.sin()).round() as i64,
+            c,
+        );
+    }
+}
+
+/// Renders the keypoints over the frame (colour by scale rank among `scales`).
+pub fn render(frame: &Frame, keypoints: &[Keypoint], scales: &[f32]) -> image::RgbImage {
+    let mut img = image::RgbImage::from_raw(frame.width, frame.height, frame.rgb.clone())
+        .expect("frame holds width*height RGB pixels");
+    for k in keypoints {
+        let rank = scales
+            .iter()
+            .position(|&s| (s - k.scale).abs() < 1e-4)
+            .unwrap_or(0);
+        let c = PALETTE[rank.min(PALETTE.len() - 1)];
+        let r = 3.0 * k.scale;
+        circle(&mut img, (k.x, k.y), r, c);
+        line(
+            &mut img,
+            (k.x, k.y),
+            (k.x + r * k.angle.cos(), k.y + r * k.angle.sin()),
+            c,
+        );
+    }
+    img
+}
+
+/// Renders and writes a PNG (atomically: a temporary file renamed into place).
+pub fn write_png(path: &Path, frame: &Frame, keypoints: &[Keypoint], scales: &[f32]) -> Result<()> {
+    let img = render(frame, keypoints, scales);
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| Error::Io {
+        path: path.into(),
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    crate::output::write_atomic(path, &bytes)
+}
