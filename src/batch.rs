@@ -159,7 +159,7 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
             {
                 Ok(o) => o,
                 Err(e) => {
-                    bar.println(format!("error: {e}"));
+                    bar.suspend(|| eprintln!("error: {e}"));
                     Outcome::Failed(e.to_string())
                 }
             };

@@ -1,0 +1,124 @@
+//! Bad input gives a clear error naming the input and the reason, never a panic.
+
+mod common;
+
+use std::path::Path;
+
+use steernav::{Backend, Detector, DetectorConfig, Error, Frame};
+
+#[test]
+fn missing_empty_and_truncated_files_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.png");
+    let e = Frame::load(&missing).unwrap_err().to_string();
+    assert!(e.contains("nope.png"), "{e}");
+
+    let empty = dir.path().join("empty.png");
+    std::fs::write(&empty, b"").unwrap();
+    let e = Frame::load(&empty).unwrap_err().to_string();
+    assert!(e.contains("empty.png") && e.contains("empty"), "{e}");
+
+    let full =
+        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/sample.png")).unwrap();
+    let truncated = dir.path().join("truncated.png");
+    std::fs::write(&truncated, &full[..full.len() / 3]).unwrap();
+    let e = Frame::load(&truncated).unwrap_err();
+    assert!(matches!(e, Error::Decode { .. }), "{e}");
+    assert!(e.to_string().contains("truncated.png"), "{e}");
+
+    let garbage = dir.path().join("garbage.jpg");
+    std::fs::write(&garbage, b"this is not an image at all").unwrap();
+    assert!(Frame::load(&garbage)
+        .unwrap_err()
+        .to_string()
+        .contains("garbage.jpg"));
+}
+
+#[test]
+fn zero_and_one_pixel_images() {
+    let e = Frame::from_rgb(0, 0, vec![]).unwrap_err().to_string();
+    assert!(e.contains("0x0") && e.contains("empty"), "{e}");
+    // A 0x0 PNG on disk is refused by name too.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("zero.png");
+    let img = image::RgbImage::new(0, 0);
+    if img.save(&p).is_ok() {
+        let e = Frame::load(&p).unwrap_err().to_string();
+        assert!(e.contains("zero.png"), "{e}");
+    }
+    let one = Frame::from_rgb(1, 1, vec![10, 20, 30]).unwrap();
+    for backend in [Backend::Cpu, Backend::Auto] {
+        let det = Detector::new(&DetectorConfig::default(), backend).unwrap();
+        let d = det.detect(&one).unwrap();
+        assert!(d.keypoints.is_empty());
+    }
+    let nan = Frame::from_gray(2, 2, vec![0.0, f32::NAN, 0.0, 0.0])
+        .unwrap_err()
+        .to_string();
+    assert!(nan.contains("not finite"), "{nan}");
+}
+
+#[test]
+fn one_pixel_image_on_the_gpu() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let det = Detector::new(&DetectorConfig::default(), Backend::Gpu).unwrap();
+    for (w, h) in [(1, 1), (3, 2), (17, 5)] {
+        let f = Frame::from_rgb(w, h, vec![99; (3 * w * h) as usize]).unwrap();
+        assert!(det.detect(&f).unwrap().keypoints.is_empty());
+    }
+}
+
+#[test]
+fn huge_request_on_the_gpu_names_the_device_limit() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let det = Detector::new(&DetectorConfig::default(), Backend::Gpu).unwrap();
+    let e = det.check_size(20000, 20000).unwrap_err().to_string();
+    assert!(e.contains("20000x20000"), "{e}");
+    let gpu = det.gpu().unwrap();
+    let e = gpu.check_fits(20000, 20000).unwrap_err().to_string();
+    assert!(
+        e.contains("max_storage_buffer_binding_size") && e.contains("20000x20000"),
+        "{e}"
+    );
+}
+
+#[test]
+fn non_finite_and_out_of_range_config_values_are_refused() {
+    for text in [
+        "basis_sigma = nan",
+        "[detector]\ngamma = inf",
+        "threshold = -1.0",
+        "orientations = 0",
+        "scales = 99",
+        "scale_step = 1.0",
+        "harris_k = nan",
+        "max_keypoints = 0",
+    ] {
+        let e = DetectorConfig::from_toml_str(text).unwrap_err();
+        let field = text
+            .trim_start_matches("[detector]\n")
+            .split(' ')
+            .next()
+            .unwrap();
+        assert!(e.contains(field), "{text}: {e}");
+    }
+    assert!(DetectorConfig::from_toml_str("orientations = \"eight\"").is_err());
+    assert!(DetectorConfig::from_toml_str("no_such_field = 1").is_err());
+    let ok = DetectorConfig::from_toml_str("[detector]\norientations = 16\n").unwrap();
+    assert_eq!(ok.orientations, 16);
+    let cfg = DetectorConfig {
+        sigma0: f32::NAN,
+        ..Default::default()
+    };
+    assert!(matches!(
+        Detector::new(&cfg, Backend::Cpu),
+        Err(Error::Config {
+            field: "sigma0",
+            ..
+        })
+    ));
+}

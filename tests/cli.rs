@@ -1,0 +1,229 @@
+//! The command line end to end: detect's JSON and CSV, --out/--draw, batch with a corrupt
+//! file, re-runs that skip finished images, --force, info, --help.
+
+use std::path::Path;
+use std::process::Command;
+
+fn steernav() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_steernav"))
+}
+
+fn sample() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/sample.png")
+}
+
+#[test]
+fn detect_prints_the_design_json_for_one_image() {
+    let out = steernav()
+        .args(["detect", "--backend", "cpu", "--max-keypoints", "50"])
+        .arg(sample())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let obj = v.as_object().unwrap();
+    let keys: Vec<&str> = obj.keys().map(String::as_str).collect();
+    assert_eq!(keys.len(), 5);
+    for k in ["image", "width", "height", "backend", "keypoints"] {
+        assert!(obj.contains_key(k), "missing {k}");
+    }
+    assert_eq!(
+        (
+            v["width"].as_u64(),
+            v["height"].as_u64(),
+            v["backend"].as_str()
+        ),
+        (Some(640), Some(480), Some("cpu"))
+    );
+    let kps = v["keypoints"].as_array().unwrap();
+    assert_eq!(kps.len(), 50);
+    let mut fields: Vec<&str> = kps[0]
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(String::as_str)
+        .collect();
+    fields.sort_unstable();
+    assert_eq!(
+        fields,
+        ["angle", "descriptor", "response", "scale", "x", "y"]
+    );
+    assert_eq!(kps[0]["descriptor"].as_array().unwrap().len(), 5);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("keypoints per scale"), "{stderr}");
+}
+
+#[test]
+fn detect_writes_files_and_pictures_for_several_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let second = dir.path().join("copy.png");
+    std::fs::copy(sample(), &second).unwrap();
+    let out_dir = dir.path().join("out");
+    let out = steernav()
+        .args([
+            "detect",
+            "--backend",
+            "cpu",
+            "--format",
+            "csv",
+            "--draw",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .arg(sample())
+        .arg(&second)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(out_dir.join("sample.csv")).unwrap();
+    assert!(csv.starts_with("x,y,scale,angle,response,h16,h32,h64,h128,h256\n"));
+    assert_eq!(csv.lines().count(), 501);
+    assert!(out_dir.join("copy.csv").exists());
+    let png = image::open(out_dir.join("sample_keypoints.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (640, 480));
+}
+
+#[test]
+fn detect_reports_bad_files_and_keeps_going() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("broken.png");
+    std::fs::write(&bad, b"\x89PNG\r\n\x1a\nbroken").unwrap();
+    let out_dir = dir.path().join("out");
+    let out = steernav()
+        .args(["detect", "--backend", "cpu", "--out"])
+        .arg(&out_dir)
+        .arg(&bad)
+        .arg(sample())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("broken.png"));
+    assert!(
+        out_dir.join("sample.json").exists(),
+        "the good image's result is kept"
+    );
+}
+
+#[test]
+fn batch_processes_a_tree_skips_done_work_and_reports_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    std::fs::create_dir_all(input.join("sub")).unwrap();
+    std::fs::copy(sample(), input.join("a.png")).unwrap();
+    let small = image::open(sample()).unwrap().resize_exact(
+        160,
+        120,
+        image::imageops::FilterType::Triangle,
+    );
+    small.save(input.join("sub/b.bmp")).unwrap();
+    small.to_luma8().save(input.join("sub/c.pgm")).unwrap();
+    std::fs::write(input.join("sub/corrupt.jpg"), b"not a jpeg").unwrap();
+    std::fs::write(input.join("notes.txt"), b"ignored").unwrap();
+    let output = dir.path().join("out");
+    let run = |extra: &[&str]| {
+        steernav()
+            .args(["batch", "--backend", "cpu"])
+            .arg(&input)
+            .arg("--out")
+            .arg(&output)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let first = run(&[]);
+    assert!(
+        !first.status.success(),
+        "a failed image makes the exit code non-zero"
+    );
+    assert!(String::from_utf8_lossy(&first.stderr).contains("corrupt.jpg"));
+    for f in ["a.png.json", "sub/b.bmp.json", "sub/c.pgm.json"] {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(output.join(f)).unwrap()).unwrap();
+        assert!(!v["keypoints"].as_array().unwrap().is_empty(), "{f}");
+    }
+    let summary = std::fs::read_to_string(output.join("summary.csv")).unwrap();
+    assert!(
+        summary.starts_with("image,status,width,height,keypoints,candidates,backend,ms,error\n")
+    );
+    assert_eq!(summary.lines().filter(|l| l.contains(",done,")).count(), 3);
+    assert_eq!(
+        summary.lines().filter(|l| l.contains(",failed,")).count(),
+        1
+    );
+
+    let before = std::fs::metadata(output.join("a.png.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    std::fs::remove_file(input.join("sub/corrupt.jpg")).unwrap();
+    let second = run(&[]);
+    assert!(
+        second.status.success(),
+        "{}",
+        String::from_utf8_lossy(&second.stderr)
+    );
+    let summary = std::fs::read_to_string(output.join("summary.csv")).unwrap();
+    assert_eq!(
+        summary.lines().filter(|l| l.contains(",skipped,")).count(),
+        3
+    );
+    assert_eq!(
+        std::fs::metadata(output.join("a.png.json"))
+            .unwrap()
+            .modified()
+            .unwrap(),
+        before
+    );
+    let third = run(&["--force"]);
+    assert!(third.status.success());
+    let summary = std::fs::read_to_string(output.join("summary.csv")).unwrap();
+    assert_eq!(summary.lines().filter(|l| l.contains(",done,")).count(), 3);
+}
+
+#[test]
+fn malformed_config_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("bad.toml");
+    std::fs::write(&cfg, "[detector]\nbasis_sigma = nan\n").unwrap();
+    let out = steernav()
+        .args(["detect", "--backend", "cpu", "--config"])
+        .arg(&cfg)
+        .arg(sample())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.toml") && err.contains("basis_sigma"),
+        "{err}"
+    );
+}
+
+#[test]
+fn help_explains_every_flag() {
+    for cmd in ["detect", "batch"] {
+        let out = steernav().args([cmd, "--help"]).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        for flag in [
+            "--backend",
+            "--orientations",
+            "--scales",
+            "--max-keypoints",
+            "--config",
+            "--merge",
+            "--out",
+        ] {
+            assert!(text.contains(flag), "{cmd} --help lacks {flag}");
+        }
+    }
+    let out = steernav().arg("info").output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("cpu threads"));
+}
