@@ -147,11 +147,11 @@ pub fn textured_scene(width: u32, height: u32, seed: u64) -> Frame {
             let fill = match rng.next_u64() % 4 {
                 0 => Fill::Stripes {
                     freq: rng.range(0.2, 0.6),
-                    angle: rng.range(0.0, 3.14),
+                    angle: rng.range(0.0, std::f32::consts::PI),
                 },
                 1 => Fill::Checker {
                     size: rng.range(4.0, 12.0),
-                    angle: rng.range(0.0, 3.14),
+                    angle: rng.range(0.0, std::f32::consts::PI),
                 },
                 _ => Fill::Flat,
             };
