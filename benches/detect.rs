@@ -15,20 +15,40 @@ fn stages(c: &mut Criterion) {
     let mut group = c.benchmark_group("detect 640x480");
     group.sample_size(10);
     let cpu = Detector::new(&cfg, Backend::Cpu).expect("valid config");
-    group.bench_function("cpu/filter bank (steered images)", |b| b.iter(|| steered_images(&cfg, &frame.gray, 640, 480)));
-    group.bench_function("cpu/harris (filters + tensor + response + nms)", |b| b.iter(|| cpu.candidates(&frame).unwrap()));
+    group.bench_function("cpu/filter bank (steered images)", |b| {
+        b.iter(|| steered_images(&cfg, &frame.gray, 640, 480))
+    });
+    group.bench_function("cpu/harris (filters + tensor + response + nms)", |b| {
+        b.iter(|| cpu.candidates(&frame).unwrap())
+    });
     let (cands, ..) = cpu.candidates(&frame).unwrap();
     group.bench_function("cpu/merge", |b| b.iter(|| merge(&cands, cpu.plan())));
     let clusters = merge(&cands, cpu.plan());
-    group.bench_function("cpu/descriptors", |b| b.iter(|| clusters.iter().map(|k| describe(&frame, k.x, k.y)).collect::<Vec<_>>()));
-    group.bench_function("cpu/detect (end to end)", |b| b.iter(|| cpu.detect(&frame).unwrap()));
+    group.bench_function("cpu/descriptors", |b| {
+        b.iter(|| {
+            clusters
+                .iter()
+                .map(|k| describe(&frame, k.x, k.y))
+                .collect::<Vec<_>>()
+        })
+    });
+    group.bench_function("cpu/detect (end to end)", |b| {
+        b.iter(|| cpu.detect(&frame).unwrap())
+    });
     if let Ok(gpu) = Detector::new(&cfg, Backend::Gpu) {
         let ctx = gpu.gpu().expect("gpu backend").context().clone();
         group.bench_function("gpu/filter bank (steered images)", |b| {
-            b.iter(|| steernav::gpu::filter_bank::steered_images(&ctx, &cfg, &frame.gray, 640, 480).unwrap())
+            b.iter(|| {
+                steernav::gpu::filter_bank::steered_images(&ctx, &cfg, &frame.gray, 640, 480)
+                    .unwrap()
+            })
         });
-        group.bench_function("gpu/harris (upload + passes + readback)", |b| b.iter(|| gpu.candidates(&frame).unwrap()));
-        group.bench_function("gpu/detect (end to end)", |b| b.iter(|| gpu.detect(&frame).unwrap()));
+        group.bench_function("gpu/harris (upload + passes + readback)", |b| {
+            b.iter(|| gpu.candidates(&frame).unwrap())
+        });
+        group.bench_function("gpu/detect (end to end)", |b| {
+            b.iter(|| gpu.detect(&frame).unwrap())
+        });
     }
     group.finish();
 }

@@ -1,10 +1,39 @@
 //! CPU separable convolution with clamp-to-edge borders: the twin of `shaders/convolve.wgsl`.
 //! Rows are processed in parallel (rayon); the inner loops run over contiguous memory so the
-//! compiler vectorises them. Taps are summed in ascending order, as the shader does.
+//! compiler vectorises them. Symmetric and antisymmetric kernels (every Gaussian derivative)
+//! are folded: one multiplication per pair of taps. The shader sums taps in plain order, so
+//! the two agree to float rounding (see the parity tolerances in tests/gpu_parity.rs).
 
 use rayon::prelude::*;
 
 use super::steerable::{Kernel1d, Separable};
+
+/// Symmetry of a kernel about its centre, which halves the multiplications.
+#[derive(Clone, Copy, PartialEq)]
+enum Parity {
+    Even,
+    Odd,
+    None,
+}
+
+fn parity(taps: &[f32]) -> Parity {
+    let n = taps.len();
+    if (0..n / 2).all(|i| taps[i] == taps[n - 1 - i]) {
+        Parity::Even
+    } else if (0..n / 2).all(|i| taps[i] == -taps[n - 1 - i]) && taps[n / 2] == 0.0 {
+        Parity::Odd
+    } else {
+        Parity::None
+    }
+}
+
+/// `out[i] += k·(a[i] + sign·b[i])`, vectorised.
+#[inline]
+fn fold_into(out: &mut [f32], a: &[f32], b: &[f32], k: f32, sign: f32) {
+    for ((o, &x), &y) in out.iter_mut().zip(a).zip(b) {
+        *o += k * (x + sign * y);
+    }
+}
 
 /// Vertical pass: `dst[y][x] = Σ_t taps[t] · src[clamp(y + t)][x]`.
 pub fn convolve_columns(
@@ -15,17 +44,43 @@ pub fn convolve_columns(
     kernel: &Kernel1d,
 ) {
     let r = kernel.radius() as isize;
+    let par = parity(&kernel.taps);
+    let row = |y: isize| {
+        let sy = y.clamp(0, height as isize - 1) as usize;
+        &src[sy * width..(sy + 1) * width]
+    };
     dst.par_chunks_mut(width)
         .take(height)
         .enumerate()
         .for_each(|(y, out)| {
+            let y = y as isize;
             out.fill(0.0);
-            for (i, &k) in kernel.taps.iter().enumerate() {
-                let sy = (y as isize + i as isize - r).clamp(0, height as isize - 1) as usize;
-                let row = &src[sy * width..(sy + 1) * width];
-                for (o, &v) in out.iter_mut().zip(row) {
-                    *o += k * v;
+            if par == Parity::None {
+                for (i, &k) in kernel.taps.iter().enumerate() {
+                    fold_into(
+                        out,
+                        row(y + i as isize - r),
+                        row(y + i as isize - r),
+                        k,
+                        0.0,
+                    );
                 }
+                return;
+            }
+            let sign = if par == Parity::Even { 1.0 } else { -1.0 };
+            let centre = kernel.taps[r as usize];
+            if centre != 0.0 {
+                fold_into(out, row(y), row(y), centre, 0.0);
+            }
+            for t in 1..=r {
+                // taps[r + t] multiplies src[y + t]; taps[r − t] = sign · taps[r + t].
+                fold_into(
+                    out,
+                    row(y + t),
+                    row(y - t),
+                    kernel.taps[(r + t) as usize],
+                    sign,
+                );
             }
         });
 }
@@ -33,6 +88,7 @@ pub fn convolve_columns(
 /// Horizontal pass: `dst[y][x] = Σ_t taps[t] · src[y][clamp(x + t)]`.
 pub fn convolve_rows(src: &[f32], dst: &mut [f32], width: usize, height: usize, kernel: &Kernel1d) {
     let r = kernel.radius();
+    let par = parity(&kernel.taps);
     dst.par_chunks_mut(width)
         .take(height)
         .enumerate()
@@ -44,10 +100,31 @@ pub fn convolve_rows(src: &[f32], dst: &mut [f32], width: usize, height: usize, 
                     .map(|i| row[(i as isize - r as isize).clamp(0, width as isize - 1) as usize]),
             );
             out.fill(0.0);
-            for (i, &k) in kernel.taps.iter().enumerate() {
-                for (o, &v) in out.iter_mut().zip(&padded[i..i + width]) {
-                    *o += k * v;
+            if par == Parity::None {
+                for (i, &k) in kernel.taps.iter().enumerate() {
+                    fold_into(out, &padded[i..i + width], &padded[i..i + width], k, 0.0);
                 }
+                return;
+            }
+            let sign = if par == Parity::Even { 1.0 } else { -1.0 };
+            let centre = kernel.taps[r];
+            if centre != 0.0 {
+                fold_into(
+                    out,
+                    &padded[r..r + width],
+                    &padded[r..r + width],
+                    centre,
+                    0.0,
+                );
+            }
+            for t in 1..=r {
+                fold_into(
+                    out,
+                    &padded[r + t..r + t + width],
+                    &padded[r - t..r - t + width],
+                    kernel.taps[r + t],
+                    sign,
+                );
             }
         });
 }
@@ -68,6 +145,33 @@ pub fn convolve_separable(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn folded_kernels_match_plain_sums() {
+        let src: Vec<f32> = (0..7 * 5).map(|i| ((i * 37 % 11) as f32).sin()).collect();
+        for order in 0..=3 {
+            let k = Kernel1d::gaussian_derivative(1.3, order, 3.0);
+            let r = k.radius() as isize;
+            let (mut rows, mut cols) = (vec![0.0; 35], vec![0.0; 35]);
+            convolve_rows(&src, &mut rows, 7, 5, &k);
+            convolve_columns(&src, &mut cols, 7, 5, &k);
+            for y in 0..5isize {
+                for x in 0..7isize {
+                    let (mut er, mut ec) = (0.0f32, 0.0f32);
+                    for (i, &t) in k.taps.iter().enumerate() {
+                        let d = i as isize - r;
+                        er += t * src[(y * 7 + (x + d).clamp(0, 6)) as usize];
+                        ec += t * src[((y + d).clamp(0, 4) * 7 + x) as usize];
+                    }
+                    let i = (y * 7 + x) as usize;
+                    assert!(
+                        (rows[i] - er).abs() < 1e-5 && (cols[i] - ec).abs() < 1e-5,
+                        "order {order}"
+                    );
+                }
+            }
+        }
+    }
 
     #[test]
     fn box_kernel_clamps_at_borders() {

@@ -141,31 +141,49 @@ impl CpuHarris {
 }
 
 /// R = det M − k·tr² M for every orientation, M from the blurred products (eqs 7–8).
+///
+/// Pixels are processed in chunks small enough that the chunk's products stay in L1 while all
+/// N orientations are evaluated, with the arithmetic laid out across pixels so it vectorises.
 fn tensor_responses(plan: &HarrisPlan, blurred: &[Vec<f32>], out: &mut [f32], plane: usize) {
+    const CHUNK: usize = 256;
     let p = plan.products.len();
     let k = plan.config.harris_k;
-    out.par_chunks_mut(plane)
-        .enumerate()
-        .for_each(|(t, r_plane)| {
+    let orientations = plan.orientations.len();
+    let out_ptr = SharedOut(out.as_mut_ptr());
+    (0..plane.div_ceil(CHUNK)).into_par_iter().for_each(|c| {
+        let out_ptr = &out_ptr;
+        let start = c * CHUNK;
+        let len = CHUNK.min(plane - start);
+        let (mut mxx, mut mxy, mut myy) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
+        for t in 0..orientations {
             let w = &plan.tensor_weights[t * 3 * p..(t + 1) * 3 * p];
-            r_plane
-                .par_chunks_mut(4096)
-                .enumerate()
-                .for_each(|(c, chunk)| {
-                    for (i, r) in chunk.iter_mut().enumerate() {
-                        let idx = c * 4096 + i;
-                        let (mut mxx, mut mxy, mut myy) = (0.0f32, 0.0f32, 0.0f32);
-                        for (q, plane_q) in blurred.iter().enumerate() {
-                            let v = plane_q[idx];
-                            mxx += w[q] * v;
-                            mxy += w[p + q] * v;
-                            myy += w[2 * p + q] * v;
-                        }
-                        *r = harris_response(mxx, mxy, myy, k);
-                    }
-                });
-        });
+            mxx[..len].fill(0.0);
+            mxy[..len].fill(0.0);
+            myy[..len].fill(0.0);
+            for (q, plane_q) in blurred.iter().enumerate() {
+                let src = &plane_q[start..start + len];
+                let (a, b, d) = (w[q], w[p + q], w[2 * p + q]);
+                for i in 0..len {
+                    mxx[i] += a * src[i];
+                    mxy[i] += b * src[i];
+                    myy[i] += d * src[i];
+                }
+            }
+            // SAFETY: chunk c writes only indices t*plane + [start, start+len) of `out`, which
+            // no other chunk touches, and `out` outlives the parallel loop.
+            let r =
+                unsafe { std::slice::from_raw_parts_mut(out_ptr.0.add(t * plane + start), len) };
+            for i in 0..len {
+                r[i] = harris_response(mxx[i], mxy[i], myy[i], k);
+            }
+        }
+    });
 }
+
+/// The response planes' base pointer, shared by the chunks that write disjoint ranges of it.
+struct SharedOut(*mut f32);
+// SAFETY: only used for the disjoint writes in `tensor_responses`.
+unsafe impl Sync for SharedOut {}
 
 /// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each), threshold,
 /// border margin and a parabola fit per axis for the sub-pixel position.

@@ -185,8 +185,7 @@ impl GpuHarris {
         let limits = &self.ctx.limits;
         for (what, count) in planes {
             let need = plane * count;
-            if need > limits.max_storage_buffer_binding_size || need > limits.max_buffer_size
-            {
+            if need > limits.max_storage_buffer_binding_size || need > limits.max_buffer_size {
                 return Err(Error::GpuLimit(format!(
                     "a {width}x{height} image needs {} MiB for the {what} ({count} planes), but this \
                      device ({}) allows max_storage_buffer_binding_size = {} MiB and \
