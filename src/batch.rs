@@ -206,13 +206,8 @@ fn detect_one(
         other => other,
     })?;
     let ms = t.elapsed().as_secs_f64() * 1e3;
-    let record = ImageKeypoints {
-        image: image.display().to_string(),
-        width: frame.width,
-        height: frame.height,
-        backend: d.backend.to_string(),
-        keypoints: d.keypoints,
-    };
+    let (candidates, backend) = (d.candidates, d.backend);
+    let record = ImageKeypoints::new(image, frame, d);
     write_atomic(output, record.to_json().as_bytes())?;
     if opts.draw {
         let scales: Vec<f32> = detector.plan().scales.iter().map(|s| s.sigma_d).collect();
@@ -227,8 +222,8 @@ fn detect_one(
         width: frame.width,
         height: frame.height,
         keypoints: record.keypoints.len(),
-        candidates: d.candidates,
-        backend: d.backend,
+        candidates,
+        backend,
         ms,
     })
 }

@@ -194,13 +194,7 @@ fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
                 .detect(&frame)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
             eprintln!("{}", summary_line(path, &d, &detector));
-            let record = ImageKeypoints {
-                image: path.display().to_string(),
-                width: frame.width,
-                height: frame.height,
-                backend: d.backend.to_string(),
-                keypoints: d.keypoints,
-            };
+            let record = ImageKeypoints::new(path, &frame, d);
             let text = match cmd.format {
                 Format::Json => record.to_json(),
                 Format::Csv => record.to_csv(),

@@ -24,6 +24,21 @@ pub struct ImageKeypoints {
 }
 
 impl ImageKeypoints {
+    /// The record of a detection on `frame`, read from `image`.
+    pub fn new(
+        image: &Path,
+        frame: &crate::image::Frame,
+        detection: crate::features::Detection,
+    ) -> Self {
+        Self {
+            image: image.display().to_string(),
+            width: frame.width,
+            height: frame.height,
+            backend: detection.backend.to_string(),
+            keypoints: detection.keypoints,
+        }
+    }
+
     /// The JSON text (one line).
     pub fn to_json(&self) -> String {
         serde_json::to_string(self).expect("keypoints serialise")

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::image::Frame;
 
-/// SplitMix64, the generator of every procedural choice.
+/// SplitMix64: the generator of every procedural choice and of the k-means++ starts.
 #[derive(Clone, Debug)]
 pub struct Rng(pub u64);
 
@@ -19,6 +19,10 @@ impl Rng {
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1) with 53 random bits.
+    pub fn unit_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
     /// Uniform in [0, 1).
     pub fn unit(&mut self) -> f32 {

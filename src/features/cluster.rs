@@ -214,32 +214,19 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     stats
 }
 
-/// A small deterministic generator (SplitMix64) for the k-means++ starts.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Stage 1, literal: k-means++ over all candidates with k = max_keypoints, 10 Lloyd iterations.
 fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let points: Vec<(f32, f32)> = candidates.iter().map(|c| (c.x, c.y)).collect();
     let k = plan.config.max_keypoints.min(points.len());
-    let mut rng = SplitMix(plan.config.seed);
-    let mut centres = vec![points[(rng.next_f64() * points.len() as f64) as usize % points.len()]];
+    let mut rng = crate::synth::Rng(plan.config.seed);
+    let mut centres = vec![points[(rng.unit_f64() * points.len() as f64) as usize % points.len()]];
     let mut d2: Vec<f32> = points.iter().map(|&p| dist2(p, centres[0])).collect();
     while centres.len() < k {
         let total: f64 = d2.iter().map(|&d| d as f64).sum();
         if total <= 0.0 {
             break;
         }
-        let mut target = rng.next_f64() * total;
+        let mut target = rng.unit_f64() * total;
         let mut pick = points.len() - 1;
         for (i, &d) in d2.iter().enumerate() {
             target -= d as f64;
