@@ -162,8 +162,14 @@ fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
         .map(|(s, n)| format!("σ{:.2}:{n}", s.sigma_d))
         .collect();
     let t = &d.timings;
+    let gpu = t.gpu.as_ref().map_or(String::new(), |g| {
+        format!(
+            " [GPU timestamps: filter bank {:.1} ms, structure tensor {:.1} ms, responses {:.1} ms, nms {:.1} ms]",
+            g.filter_bank_ms, g.structure_tensor_ms, g.response_ms, g.nms_ms
+        )
+    });
     format!(
-        "{}: {} keypoints from {} candidates on {} (harris {:.1} ms, merge {:.1} ms, descriptors {:.1} ms); keypoints per scale {}",
+        "{}: {} keypoints from {} candidates on {} (harris {:.1} ms{gpu}, merge {:.1} ms, descriptors {:.1} ms); keypoints per scale {}",
         image.display(),
         d.keypoints.len(),
         d.candidates,

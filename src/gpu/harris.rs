@@ -208,9 +208,14 @@ impl GpuHarris {
         Ok(())
     }
 
-    /// Allocates (or finds) the buffers for a frame size; returns its index in the cache,
-    /// which it moves to the front.
-    fn frame_index(&self, frames: &mut Vec<FrameResources>, width: u32, height: u32) -> Result<()> {
+    /// Allocates (or finds) the buffers for a frame size and moves them to the front of the
+    /// cache, where the caller finds them as `frames[0]`.
+    fn select_frame(
+        &self,
+        frames: &mut Vec<FrameResources>,
+        width: u32,
+        height: u32,
+    ) -> Result<()> {
         if let Some(i) = frames
             .iter()
             .position(|f| f.width == width && f.height == height)
@@ -542,7 +547,7 @@ impl GpuHarris {
         height: u32,
     ) -> Result<(Vec<Candidate>, f32, Option<GpuTimings>)> {
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
-        self.frame_index(&mut frames, width, height)?;
+        self.select_frame(&mut frames, width, height)?;
         let f = &frames[0];
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
@@ -608,7 +613,7 @@ impl GpuHarris {
         s: usize,
     ) -> Result<Vec<Vec<f32>>> {
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
-        self.frame_index(&mut frames, width, height)?;
+        self.select_frame(&mut frames, width, height)?;
         let f = &frames[0];
         self.upload(f, gray);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
@@ -624,7 +629,7 @@ impl GpuHarris {
     /// Harris responses of every scale and orientation (parity tests, inspection).
     pub fn responses(&self, gray: &[f32], width: u32, height: u32) -> Result<ResponseStack> {
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
-        self.frame_index(&mut frames, width, height)?;
+        self.select_frame(&mut frames, width, height)?;
         let f = &frames[0];
         self.upload(f, gray);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
