@@ -6,6 +6,7 @@
 
 use rayon::prelude::*;
 
+use super::simd::fold_into;
 use super::steerable::{Kernel1d, Separable};
 
 /// Symmetry of a kernel about its centre, which halves the multiplications.
@@ -24,14 +25,6 @@ fn parity(taps: &[f32]) -> Parity {
         Parity::Odd
     } else {
         Parity::None
-    }
-}
-
-/// `out[i] += k·(a[i] + sign·b[i])`, vectorised.
-#[inline]
-fn fold_into(out: &mut [f32], a: &[f32], b: &[f32], k: f32, sign: f32) {
-    for ((o, &x), &y) in out.iter_mut().zip(a).zip(b) {
-        *o += k * (x + sign * y);
     }
 }
 
@@ -94,11 +87,10 @@ pub fn convolve_rows(src: &[f32], dst: &mut [f32], width: usize, height: usize, 
         .enumerate()
         .for_each_init(Vec::new, |padded, (y, out)| {
             let row = &src[y * width..(y + 1) * width];
-            padded.clear();
-            padded.extend(
-                (0..width + 2 * r)
-                    .map(|i| row[(i as isize - r as isize).clamp(0, width as isize - 1) as usize]),
-            );
+            padded.resize(width + 2 * r, 0.0);
+            padded[..r].fill(row[0]);
+            padded[r..r + width].copy_from_slice(row);
+            padded[r + width..].fill(row[width - 1]);
             out.fill(0.0);
             if par == Parity::None {
                 for (i, &k) in kernel.taps.iter().enumerate() {

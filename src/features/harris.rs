@@ -7,6 +7,7 @@ use std::sync::Mutex;
 use rayon::prelude::*;
 
 use super::convolve::{convolve_columns, convolve_rows, convolve_separable};
+use super::simd::axpy;
 use super::steerable::{harris_response, HarrisPlan};
 use super::Candidate;
 
@@ -149,32 +150,39 @@ fn tensor_responses(plan: &HarrisPlan, blurred: &[Vec<f32>], out: &mut [f32], pl
     let p = plan.products.len();
     let k = plan.config.harris_k;
     let orientations = plan.orientations.len();
+    // Each θ's tensor entries use only some of the products (21 of 30 weights are non-zero
+    // for the second-order basis): keep the (product, weight) pairs that matter.
+    let terms: Vec<[Vec<(usize, f32)>; 3]> = (0..orientations)
+        .map(|t| {
+            let w = &plan.tensor_weights[t * 3 * p..(t + 1) * 3 * p];
+            std::array::from_fn(|e| {
+                (0..p)
+                    .filter(|&q| w[e * p + q] != 0.0)
+                    .map(|q| (q, w[e * p + q]))
+                    .collect()
+            })
+        })
+        .collect();
     let out_ptr = SharedOut(out.as_mut_ptr());
     (0..plane.div_ceil(CHUNK)).into_par_iter().for_each(|c| {
         let out_ptr = &out_ptr;
         let start = c * CHUNK;
         let len = CHUNK.min(plane - start);
-        let (mut mxx, mut mxy, mut myy) = ([0.0f32; CHUNK], [0.0f32; CHUNK], [0.0f32; CHUNK]);
-        for t in 0..orientations {
-            let w = &plan.tensor_weights[t * 3 * p..(t + 1) * 3 * p];
-            mxx[..len].fill(0.0);
-            mxy[..len].fill(0.0);
-            myy[..len].fill(0.0);
-            for (q, plane_q) in blurred.iter().enumerate() {
-                let src = &plane_q[start..start + len];
-                let (a, b, d) = (w[q], w[p + q], w[2 * p + q]);
-                for i in 0..len {
-                    mxx[i] += a * src[i];
-                    mxy[i] += b * src[i];
-                    myy[i] += d * src[i];
+        let mut m = [[0.0f32; CHUNK]; 3];
+        for (t, entries) in terms.iter().enumerate() {
+            for (acc, list) in m.iter_mut().zip(entries) {
+                let acc = &mut acc[..len];
+                acc.fill(0.0);
+                for &(q, w) in list {
+                    axpy(acc, &blurred[q][start..start + len], w);
                 }
             }
             // SAFETY: chunk c writes only indices t*plane + [start, start+len) of `out`, which
             // no other chunk touches, and `out` outlives the parallel loop.
             let r =
                 unsafe { std::slice::from_raw_parts_mut(out_ptr.0.add(t * plane + start), len) };
-            for i in 0..len {
-                r[i] = harris_response(mxx[i], mxy[i], myy[i], k);
+            for (i, r) in r.iter_mut().enumerate() {
+                *r = harris_response(m[0][i], m[1][i], m[2][i], k);
             }
         }
     });
@@ -214,24 +222,12 @@ pub fn suppress(
                     if v.is_nan() || v <= threshold {
                         continue;
                     }
-                    let mut keep = true;
-                    'outer: for dy in 0..3 {
-                        for dx in 0..3 {
-                            let (nx, ny) = (x + dx - 1, y + dy - 1);
-                            if (dx != 1 || dy != 1) && at(s, nx, ny) >= v {
-                                keep = false;
-                                break 'outer;
-                            }
-                            if s > 0 && at(s - 1, nx, ny) > v {
-                                keep = false;
-                                break 'outer;
-                            }
-                            if s + 1 < scales && at(s + 1, nx, ny) > v {
-                                keep = false;
-                                break 'outer;
-                            }
-                        }
-                    }
+                    // Same-scale neighbours first: they reject most pixels and are in cache.
+                    let spatial = (0..9).all(|i| i == 4 || at(s, x + i % 3 - 1, y + i / 3 - 1) < v);
+                    let across =
+                        |sc: usize| (0..9).all(|i| at(sc, x + i % 3 - 1, y + i / 3 - 1) <= v);
+                    let keep =
+                        spatial && (s == 0 || across(s - 1)) && (s + 1 == scales || across(s + 1));
                     if keep {
                         let ox = parabola_offset(at(s, x - 1, y), v, at(s, x + 1, y));
                         let oy = parabola_offset(at(s, x, y - 1), v, at(s, x, y + 1));

@@ -8,6 +8,7 @@ pub mod descriptor;
 pub mod detector;
 pub mod filter_bank;
 pub mod harris;
+pub mod simd;
 pub mod steerable;
 
 use serde::{Deserialize, Serialize};
