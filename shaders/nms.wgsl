@@ -1,17 +1,26 @@
-// Non-maximum suppression in space (3x3) and across adjacent scales (3x3 in each), response
-// threshold, border margin, sub-pixel parabola fit, and compaction of the survivors with an
-// atomic counter (paper section 2.2.2: local maxima of R in scale and space).
+// Non-maximum suppression in space (3x3) and across adjacent scales (3x3 in each, around the
+// nearest sample of their grid), response threshold, border margin, sub-pixel parabola fit, and
+// compaction of the survivors with an atomic counter (paper section 2.2.2: local maxima of R
+// in scale and space). Each scale lives on its own grid (sample (i, j) at pixel (i, j)*step).
 // CPU twin: suppress and parabola_offset in src/features/harris.rs.
 
 struct Params {
-    width: u32,
+    width: u32,       // this scale's grid
     height: u32,
     plane: u32,
     orientations: u32,
     scale: u32,
     has_prev: u32,
     has_next: u32,
-    margin: u32,
+    margin: u32,      // in grid cells
+    step: u32,
+    prev_width: u32,
+    prev_height: u32,
+    prev_step: u32,
+    next_width: u32,
+    next_height: u32,
+    next_step: u32,
+    _pad: u32,
 }
 
 struct Settings {
@@ -44,6 +53,35 @@ fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
     return 0.0;
 }
 
+// Largest value of a 3x3 neighbourhood of another scale's grid around pixel (px, py).
+fn prev_max(t: u32, px: u32, py: u32) -> f32 {
+    let s = params.prev_step;
+    let cx = (px + s / 2u) / s;
+    let cy = (py + s / 2u) / s;
+    let base = t * params.prev_width * params.prev_height;
+    var m = -3.4e38;
+    for (var i = 0u; i < 9u; i++) {
+        let nx = min(max(cx + i % 3u, 1u) - 1u, params.prev_width - 1u);
+        let ny = min(max(cy + i / 3u, 1u) - 1u, params.prev_height - 1u);
+        m = max(m, prev[base + ny * params.prev_width + nx]);
+    }
+    return m;
+}
+
+fn next_max(t: u32, px: u32, py: u32) -> f32 {
+    let s = params.next_step;
+    let cx = (px + s / 2u) / s;
+    let cy = (py + s / 2u) / s;
+    let base = t * params.next_width * params.next_height;
+    var m = -3.4e38;
+    for (var i = 0u; i < 9u; i++) {
+        let nx = min(max(cx + i % 3u, 1u) - 1u, params.next_width - 1u);
+        let ny = min(max(cy + i / 3u, 1u) - 1u, params.next_height - 1u);
+        m = max(m, next[base + ny * params.next_width + nx]);
+    }
+    return m;
+}
+
 @compute @workgroup_size(16, 16, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = params.margin;
@@ -62,26 +100,27 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             continue;
         }
         var keep = true;
-        for (var dy = 0u; dy < 3u; dy++) {
-            for (var dx = 0u; dx < 3u; dx++) {
-                let n = base + (gid.y + dy - 1u) * w + (gid.x + dx - 1u);
-                if ((dx != 1u || dy != 1u) && cur[n] >= v) {
-                    keep = false;
-                }
-                if (params.has_prev == 1u && prev[n] > v) {
-                    keep = false;
-                }
-                if (params.has_next == 1u && next[n] > v) {
-                    keep = false;
-                }
+        for (var i = 0u; i < 9u; i++) {
+            let n = base + (gid.y + i / 3u - 1u) * w + (gid.x + i % 3u - 1u);
+            if (i != 4u && cur[n] >= v) {
+                keep = false;
             }
+        }
+        let px = gid.x * params.step;
+        let py = gid.y * params.step;
+        if (keep && params.has_prev == 1u && prev_max(t, px, py) > v) {
+            keep = false;
+        }
+        if (keep && params.has_next == 1u && next_max(t, px, py) > v) {
+            keep = false;
         }
         if (keep) {
             let ox = parabola_offset(cur[i - 1u], v, cur[i + 1u]);
             let oy = parabola_offset(cur[i - w], v, cur[i + w]);
             let slot = atomicAdd(&counter, 1u);
             if (slot < settings.capacity) {
-                candidates[slot] = Candidate(f32(gid.x) + ox, f32(gid.y) + oy, v, (params.scale << 16u) | t);
+                let g = f32(params.step);
+                candidates[slot] = Candidate((f32(gid.x) + ox) * g, (f32(gid.y) + oy) * g, v, (params.scale << 16u) | t);
             }
         }
     }

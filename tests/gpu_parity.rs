@@ -64,8 +64,20 @@ fn derivatives_and_responses_match_cpu() {
     }
     let g = gpu.responses(&frame.gray, W, H).unwrap();
     let c = cpu.responses(&frame.gray, W as usize, H as usize);
-    let plane = (W * H) as usize;
+    assert_eq!(g.grids, c.grids);
+    assert!(
+        c.grids.last().unwrap().0 < W as usize,
+        "coarse scales use a subsampled grid"
+    );
     for (s, (a, b)) in c.responses.iter().zip(&g.responses).enumerate() {
+        let plane = c.grids[s].0 * c.grids[s].1;
+        assert_eq!(
+            (a.len(), b.len()),
+            (
+                plane * plan.orientations.len(),
+                plane * plan.orientations.len()
+            )
+        );
         for t in 0..plan.orientations.len() {
             let (d, m) = common::max_diff(
                 &a[t * plane..(t + 1) * plane],

@@ -36,6 +36,19 @@ pub fn convolve_columns(
     height: usize,
     kernel: &Kernel1d,
 ) {
+    convolve_columns_strided(src, dst, width, height, kernel, 1);
+}
+
+/// Vertical pass evaluated on every `step`-th row only: `dst` has ⌈height/step⌉ rows and
+/// `dst[j][x] = Σ_t taps[t] · src[clamp(j·step + t)][x]`.
+pub fn convolve_columns_strided(
+    src: &[f32],
+    dst: &mut [f32],
+    width: usize,
+    height: usize,
+    kernel: &Kernel1d,
+    step: usize,
+) {
     let r = kernel.radius() as isize;
     let par = parity(&kernel.taps);
     let row = |y: isize| {
@@ -43,10 +56,10 @@ pub fn convolve_columns(
         &src[sy * width..(sy + 1) * width]
     };
     dst.par_chunks_mut(width)
-        .take(height)
+        .take(height.div_ceil(step))
         .enumerate()
-        .for_each(|(y, out)| {
-            let y = y as isize;
+        .for_each(|(j, out)| {
+            let y = (j * step) as isize;
             out.fill(0.0);
             if par == Parity::None {
                 for (i, &k) in kernel.taps.iter().enumerate() {
@@ -80,6 +93,22 @@ pub fn convolve_columns(
 
 /// Horizontal pass: `dst[y][x] = Σ_t taps[t] · src[y][clamp(x + t)]`.
 pub fn convolve_rows(src: &[f32], dst: &mut [f32], width: usize, height: usize, kernel: &Kernel1d) {
+    convolve_rows_strided(src, dst, width, height, kernel, 1);
+}
+
+/// Horizontal pass evaluated on every `step`-th column only: `dst` rows have ⌈width/step⌉
+/// values and `dst[y][i] = Σ_t taps[t] · src[y][clamp(i·step + t)]`.
+pub fn convolve_rows_strided(
+    src: &[f32],
+    dst: &mut [f32],
+    width: usize,
+    height: usize,
+    kernel: &Kernel1d,
+    step: usize,
+) {
+    if step > 1 {
+        return convolve_rows_sampled(src, dst, width, height, kernel, step);
+    }
     let r = kernel.radius();
     let par = parity(&kernel.taps);
     dst.par_chunks_mut(width)
@@ -117,6 +146,34 @@ pub fn convolve_rows(src: &[f32], dst: &mut [f32], width: usize, height: usize, 
                     kernel.taps[r + t],
                     sign,
                 );
+            }
+        });
+}
+
+/// The strided horizontal pass: a gather per output sample (the contiguous-slice form of
+/// [`convolve_rows`] would compute `step` times too many outputs).
+fn convolve_rows_sampled(
+    src: &[f32],
+    dst: &mut [f32],
+    width: usize,
+    height: usize,
+    kernel: &Kernel1d,
+    step: usize,
+) {
+    let r = kernel.radius();
+    let out_w = width.div_ceil(step);
+    dst.par_chunks_mut(out_w)
+        .take(height)
+        .enumerate()
+        .for_each_init(Vec::new, |padded: &mut Vec<f32>, (y, out)| {
+            let row = &src[y * width..(y + 1) * width];
+            padded.resize(width + 2 * r, 0.0);
+            padded[..r].fill(row[0]);
+            padded[r..r + width].copy_from_slice(row);
+            padded[r + width..].fill(row[width - 1]);
+            for (i, o) in out.iter_mut().enumerate() {
+                let window = &padded[i * step..i * step + 2 * r + 1];
+                *o = window.iter().zip(&kernel.taps).map(|(v, k)| v * k).sum();
             }
         });
 }

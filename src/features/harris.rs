@@ -6,7 +6,7 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
-use super::convolve::{convolve_columns, convolve_rows, convolve_separable};
+use super::convolve::{convolve_columns_strided, convolve_rows_strided, convolve_separable};
 use super::simd::axpy;
 use super::steerable::{harris_response, HarrisPlan};
 use super::Candidate;
@@ -31,12 +31,11 @@ pub struct CpuHarris {
 
 /// Output of the Harris stage for inspection: responses of every scale and orientation.
 pub struct ResponseStack {
-    /// `responses[s]` holds N planes (layout `[θ][y][x]`).
+    /// `responses[s]` holds N planes on scale s's grid (layout `[θ][j][i]`, sample (i, j) at
+    /// pixel (i·step, j·step)).
     pub responses: Vec<Vec<f32>>,
-    /// Plane width.
-    pub width: usize,
-    /// Plane height.
-    pub height: usize,
+    /// Grid size (columns, rows) of each scale.
+    pub grids: Vec<(usize, usize)>,
 }
 
 impl CpuHarris {
@@ -79,8 +78,12 @@ impl CpuHarris {
         self.compute(&mut ws, gray, width, height);
         ResponseStack {
             responses: ws.responses.clone(),
-            width,
-            height,
+            grids: self
+                .plan
+                .scales
+                .iter()
+                .map(|sc| sc.grid(width, height))
+                .collect(),
         }
     }
 
@@ -112,7 +115,14 @@ impl CpuHarris {
                 derivatives: planes(plan.derivative_count()),
                 product: vec![0.0; n],
                 blurred: planes(plan.products.len()),
-                responses: vec![vec![0.0; n * plan.orientations.len()]; plan.scales.len()],
+                responses: plan
+                    .scales
+                    .iter()
+                    .map(|sc| {
+                        let (gw, gh) = sc.grid(width, height);
+                        vec![0.0; gw * gh * plan.orientations.len()]
+                    })
+                    .collect(),
             };
         }
         let Workspace {
@@ -127,16 +137,18 @@ impl CpuHarris {
             for (d, filter) in derivatives.iter_mut().zip(&scale.derivatives) {
                 convolve_separable(gray, d, scratch, width, height, filter);
             }
+            let step = scale.step as usize;
+            let (gw, gh) = scale.grid(width, height);
             for (q, &(j, k)) in blurred.iter_mut().zip(&plan.products) {
                 let (a, b) = (&derivatives[j], &derivatives[k]);
                 product
                     .par_iter_mut()
                     .zip(a.par_iter().zip(b.par_iter()))
                     .for_each(|(p, (x, y))| *p = x * y);
-                convolve_columns(product, scratch, width, height, &scale.window);
-                convolve_rows(scratch, q, width, height, &scale.window);
+                convolve_columns_strided(product, scratch, width, height, &scale.window, step);
+                convolve_rows_strided(scratch, q, width, gh, &scale.window, step);
             }
-            tensor_responses(plan, blurred, &mut responses[s], n);
+            tensor_responses(plan, blurred, &mut responses[s], gw * gh);
         }
     }
 }
@@ -193,8 +205,9 @@ struct SharedOut(*mut f32);
 // SAFETY: only used for the disjoint writes in `tensor_responses`.
 unsafe impl Sync for SharedOut {}
 
-/// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each), threshold,
-/// border margin and a parabola fit per axis for the sub-pixel position.
+/// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each, around the
+/// nearest sample of their grid), threshold, border margin and a parabola fit per axis for the
+/// sub-pixel position. Candidates come out in pixel coordinates.
 pub fn suppress(
     plan: &HarrisPlan,
     responses: &[Vec<f32>],
@@ -202,38 +215,61 @@ pub fn suppress(
     height: usize,
     threshold: f32,
 ) -> Vec<Candidate> {
-    let plane = width * height;
     let scales = plan.scales.len();
+    let grids: Vec<(usize, usize)> = plan
+        .scales
+        .iter()
+        .map(|sc| sc.grid(width, height))
+        .collect();
     let tasks: Vec<(usize, usize)> = (0..scales)
         .flat_map(|s| (0..plan.orientations.len()).map(move |t| (s, t)))
         .collect();
     tasks
         .par_iter()
         .flat_map_iter(|&(s, t)| {
-            let m = plan.scales[s].margin as usize;
-            let at = |sc: usize, x: usize, y: usize| responses[sc][t * plane + y * width + x];
+            let (gw, gh) = grids[s];
+            let g = plan.scales[s].step as usize;
+            let m = plan.scales[s].grid_margin();
+            let plane_of = |sc: usize| {
+                let (w, h) = grids[sc];
+                &responses[sc][t * w * h..(t + 1) * w * h]
+            };
+            let cur = plane_of(s);
+            let at = |x: usize, y: usize| cur[y * gw + x];
+            // Is v at least every value of scale sc's 3×3 neighbourhood around pixel (px, py)?
+            let across = |sc: usize, px: usize, py: usize, v: f32| {
+                let (w, h) = grids[sc];
+                let gs = plan.scales[sc].step as usize;
+                let (cx, cy) = ((px + gs / 2) / gs, (py + gs / 2) / gs);
+                let other = plane_of(sc);
+                (0..9).all(|i| {
+                    let nx = (cx + i % 3).saturating_sub(1).min(w - 1);
+                    let ny = (cy + i / 3).saturating_sub(1).min(h - 1);
+                    other[ny * w + nx] <= v
+                })
+            };
             let mut out = Vec::new();
-            if width <= 2 * m || height <= 2 * m {
+            if gw <= 2 * m || gh <= 2 * m {
                 return out.into_iter();
             }
-            for y in m..height - m {
-                for x in m..width - m {
-                    let v = at(s, x, y);
+            for y in m..gh - m {
+                for x in m..gw - m {
+                    let v = at(x, y);
                     if v.is_nan() || v <= threshold {
                         continue;
                     }
-                    // Same-scale neighbours first: they reject most pixels and are in cache.
-                    let spatial = (0..9).all(|i| i == 4 || at(s, x + i % 3 - 1, y + i / 3 - 1) < v);
-                    let across =
-                        |sc: usize| (0..9).all(|i| at(sc, x + i % 3 - 1, y + i / 3 - 1) <= v);
-                    let keep =
-                        spatial && (s == 0 || across(s - 1)) && (s + 1 == scales || across(s + 1));
+                    // Same-scale neighbours first: they reject most samples and are in cache.
+                    let spatial = (0..9).all(|i| i == 4 || at(x + i % 3 - 1, y + i / 3 - 1) < v);
+                    let (px, py) = (x * g, y * g);
+                    let keep = spatial
+                        && (s == 0 || across(s - 1, px, py, v))
+                        && (s + 1 == scales || across(s + 1, px, py, v));
                     if keep {
-                        let ox = parabola_offset(at(s, x - 1, y), v, at(s, x + 1, y));
-                        let oy = parabola_offset(at(s, x, y - 1), v, at(s, x, y + 1));
+                        let ox = parabola_offset(at(x - 1, y), v, at(x + 1, y));
+                        let oy = parabola_offset(at(x, y - 1), v, at(x, y + 1));
                         out.push(Candidate {
-                            x: x as f32 + ox,
-                            y: y as f32 + oy,
+                            x: (x as f32 + ox) * g as f32,
+                            y: (y as f32 + oy) * g as f32,
                             response: v,
                             packed: Candidate::pack(s, t),
                         });

@@ -131,8 +131,35 @@ pub struct ScalePlan {
     pub derivatives: Vec<Separable>,
     /// The integration window w(σ_I) (eq 7), used along both axes.
     pub window: Kernel1d,
-    /// Border margin: no candidate closer to the border.
+    /// Border margin in pixels: no candidate closer to the border.
     pub margin: u32,
+    /// Sampling step of this scale's response grid (1, 2, 4 …): the window-blurred products
+    /// are smooth at σ_I, so the blur's output, the responses and the suppression are computed
+    /// every `step` pixels only (step = largest power of two ≤ σ_I / 1.4, so aliasing stays
+    /// below exp(−π²·1.4²/2) ≈ 6e-5 of the signal).
+    pub step: u32,
+}
+
+impl ScalePlan {
+    /// Size of the response grid for a `width`×`height` image.
+    pub fn grid(&self, width: usize, height: usize) -> (usize, usize) {
+        let g = self.step as usize;
+        (width.div_ceil(g), height.div_ceil(g))
+    }
+
+    /// The border margin in grid cells.
+    pub fn grid_margin(&self) -> usize {
+        (self.margin.div_ceil(self.step)).max(1) as usize
+    }
+}
+
+/// The grid step of a scale with integration scale `sigma_i`.
+pub fn grid_step(sigma_i: f32) -> u32 {
+    let mut step = 1u32;
+    while sigma_i / (2 * step) as f32 >= 1.4 && step < 64 {
+        step *= 2;
+    }
+    step
 }
 
 /// The whole multiscale steered Harris computation, shared by the CPU and GPU backends.
@@ -200,6 +227,7 @@ impl HarrisPlan {
                     derivatives,
                     window: Kernel1d::gaussian_derivative(config.sigma_i(s), 0, config.truncate),
                     margin: config.margin(s),
+                    step: grid_step(config.sigma_i(s)),
                 }
             })
             .collect();

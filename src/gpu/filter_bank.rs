@@ -50,7 +50,12 @@ pub fn steered_images(
     let taps = storage_init(device, "basis taps", &taps);
     let col_jobs = storage_init(device, "basis column jobs", &col_jobs);
     let row_jobs = storage_init(device, "basis row jobs", &row_jobs);
-    let dims = uniform(device, "dims", &[width, height, plane, 0u32]);
+    // The convolve shader's Dims: a full-resolution pass (step 1).
+    let dims = uniform(
+        device,
+        "dims",
+        &[width, height, width, height, 1, plane, plane, 0u32],
+    );
     let gray_buf = storage_init(device, "gray", gray);
     let tmp = storage(device, "column pass", plane as u64 * 4 * b as u64);
     let basis = storage(device, "basis", plane as u64 * 4 * b as u64);

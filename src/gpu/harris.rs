@@ -19,10 +19,44 @@ use crate::features::{raised_threshold, sort_candidates, Candidate};
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct Dims {
+    src_width: u32,
+    src_height: u32,
+    dst_width: u32,
+    dst_height: u32,
+    step: u32,
+    src_plane: u32,
+    dst_plane: u32,
+    pad: u32,
+}
+
+impl Dims {
+    /// A pass from a `w`×`h` plane; `rows` subsamples x by `step`, otherwise y.
+    fn pass(w: u32, h: u32, step: u32, rows: bool) -> Self {
+        let (dw, dh) = if rows {
+            (w.div_ceil(step), h)
+        } else {
+            (w, h.div_ceil(step))
+        };
+        Self {
+            src_width: w,
+            src_height: h,
+            dst_width: dw,
+            dst_height: dh,
+            step,
+            src_plane: w * h,
+            dst_plane: dw * dh,
+            pad: 0,
+        }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ProductParams {
     width: u32,
     height: u32,
     plane: u32,
-    pad: u32,
+    count: u32,
 }
 
 #[repr(C)]
@@ -57,6 +91,14 @@ struct NmsParams {
     has_prev: u32,
     has_next: u32,
     margin: u32,
+    step: u32,
+    prev_width: u32,
+    prev_height: u32,
+    prev_step: u32,
+    next_width: u32,
+    next_height: u32,
+    next_step: u32,
+    pad: u32,
 }
 
 #[repr(C)]
@@ -89,6 +131,10 @@ pub struct GpuTimings {
 
 /// Bind groups and job counts of one scale.
 struct ScaleGroups {
+    /// Workgroups covering the full-resolution plane, the blur's column output and the grid.
+    full_groups: (u32, u32),
+    column_groups: (u32, u32),
+    grid_groups: (u32, u32),
     derivative_columns: wgpu::BindGroup,
     derivative_rows: wgpu::BindGroup,
     products: wgpu::BindGroup,
@@ -247,8 +293,17 @@ impl GpuHarris {
         );
         let derivatives = storage(device, "derivatives", plane * 4 * count as u64);
         let prod = storage(device, "products", plane * 4 * products as u64);
-        let responses: Vec<_> = (0..plan.scales.len())
-            .map(|_| storage(device, "responses", plane * 4 * n as u64))
+        let grids: Vec<(u32, u32)> = plan
+            .scales
+            .iter()
+            .map(|sc| {
+                let (gw, gh) = sc.grid(width as usize, height as usize);
+                (gw as u32, gh as u32)
+            })
+            .collect();
+        let responses: Vec<_> = grids
+            .iter()
+            .map(|&(gw, gh)| storage(device, "responses", (gw * gh) as u64 * 4 * n as u64))
             .collect();
         let capacity = plan.config.candidate_capacity as u64;
         let counter = storage(device, "counter", 4);
@@ -274,37 +329,15 @@ impl GpuHarris {
         });
         let counter_staging = staging(device, "counter readback", 4);
         let candidate_staging = staging(device, "candidate readback", capacity * 16);
-        let dims = uniform(
-            device,
-            "dims",
-            &Dims {
-                width,
-                height,
-                plane: plane as u32,
-                pad: 0,
-            },
-        );
+        let full_dims = uniform(device, "dims", &Dims::pass(width, height, 1, false));
         let product_params = uniform(
             device,
             "products",
-            &Dims {
+            &ProductParams {
                 width,
                 height,
                 plane: plane as u32,
-                pad: count as u32,
-            },
-        );
-        let response_params = uniform(
-            device,
-            "response",
-            &ResponseParams {
-                width,
-                height,
-                plane: plane as u32,
-                products: products as u32,
-                orientations: n as u32,
-                k: plan.config.harris_k,
-                pad: [0; 2],
+                count: count as u32,
             },
         );
         let nms_settings = uniform(
@@ -357,32 +390,63 @@ impl GpuHarris {
                         })
                         .collect(),
                 );
+                let step = plan.scales[s].step;
+                let (gw, gh) = grids[s];
+                let (ps, ns) = (s.saturating_sub(1), (s + 1).min(plan.scales.len() - 1));
+                let column_dims = Dims::pass(width, height, step, false);
+                let row_dims = Dims::pass(width, column_dims.dst_height, step, true);
+                let blur_column_dims = uniform(device, "blur column dims", &column_dims);
+                let blur_row_dims = uniform(device, "blur row dims", &row_dims);
+                let response_params = uniform(
+                    device,
+                    "response",
+                    &ResponseParams {
+                        width: gw,
+                        height: gh,
+                        plane: gw * gh,
+                        products: products as u32,
+                        orientations: n as u32,
+                        k: plan.config.harris_k,
+                        pad: [0; 2],
+                    },
+                );
                 let nms_params = uniform(
                     device,
                     "nms",
                     &NmsParams {
-                        width,
-                        height,
-                        plane: plane as u32,
+                        width: gw,
+                        height: gh,
+                        plane: gw * gh,
                         orientations: n as u32,
                         scale: s as u32,
                         has_prev: (s > 0) as u32,
                         has_next: (s + 1 < plan.scales.len()) as u32,
-                        margin: plan.scales[s].margin,
+                        margin: plan.scales[s].grid_margin() as u32,
+                        step,
+                        prev_width: grids[ps].0,
+                        prev_height: grids[ps].1,
+                        prev_step: plan.scales[ps].step,
+                        next_width: grids[ns].0,
+                        next_height: grids[ns].1,
+                        next_step: plan.scales[ns].step,
+                        pad: 0,
                     },
                 );
                 let prev = &responses[s.saturating_sub(1)];
                 let next = &responses[(s + 1).min(plan.scales.len() - 1)];
                 ScaleGroups {
+                    full_groups: groups_2d(width, height),
+                    column_groups: groups_2d(width, column_dims.dst_height),
+                    grid_groups: groups_2d(gw, gh),
                     derivative_columns: bind(
                         device,
                         &pipes.convolve_columns,
-                        &[&dims, &dc, &self.taps, &gray, &tmp],
+                        &[&full_dims, &dc, &self.taps, &gray, &tmp],
                     ),
                     derivative_rows: bind(
                         device,
                         &pipes.convolve_rows,
-                        &[&dims, &dr, &self.taps, &tmp, &derivatives],
+                        &[&full_dims, &dr, &self.taps, &tmp, &derivatives],
                     ),
                     products: bind(
                         device,
@@ -392,12 +456,12 @@ impl GpuHarris {
                     blur_columns: bind(
                         device,
                         &pipes.convolve_columns,
-                        &[&dims, &blur, &self.taps, &prod, &tmp],
+                        &[&blur_column_dims, &blur, &self.taps, &prod, &tmp],
                     ),
                     blur_rows: bind(
                         device,
                         &pipes.convolve_rows,
-                        &[&dims, &blur, &self.taps, &tmp, &prod],
+                        &[&blur_row_dims, &blur, &self.taps, &tmp, &prod],
                     ),
                     response: bind(
                         device,
@@ -446,7 +510,6 @@ impl GpuHarris {
         derivatives_only: bool,
     ) {
         let pipes = self.ctx.pipelines();
-        let (gx, gy) = groups_2d(f.width, f.height);
         let count = self.plan.derivative_count() as u32;
         let products = self.plan.products.len() as u32;
         for (s, g) in f.scales.iter().enumerate().take(last + 1) {
@@ -459,6 +522,7 @@ impl GpuHarris {
                         end_of_pass_write_index: Some(8 * s as u32 + 2 * i + 1),
                     })
             };
+            let (gx, gy) = g.full_groups;
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("filter bank"),
@@ -484,10 +548,10 @@ impl GpuHarris {
                 pass.dispatch_workgroups(gx, gy, 1);
                 pass.set_pipeline(&pipes.convolve_columns);
                 pass.set_bind_group(0, &g.blur_columns, &[]);
-                pass.dispatch_workgroups(gx, gy, products);
+                pass.dispatch_workgroups(g.column_groups.0, g.column_groups.1, products);
                 pass.set_pipeline(&pipes.convolve_rows);
                 pass.set_bind_group(0, &g.blur_rows, &[]);
-                pass.dispatch_workgroups(gx, gy, products);
+                pass.dispatch_workgroups(g.grid_groups.0, g.grid_groups.1, products);
             }
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("response"),
@@ -495,13 +559,12 @@ impl GpuHarris {
             });
             pass.set_pipeline(&pipes.response);
             pass.set_bind_group(0, &g.response, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
+            pass.dispatch_workgroups(g.grid_groups.0, g.grid_groups.1, 1);
         }
     }
 
     fn encode_nms(&self, enc: &mut wgpu::CommandEncoder, f: &FrameResources) {
         let pipes = self.ctx.pipelines();
-        let (gx, gy) = groups_2d(f.width, f.height);
         enc.clear_buffer(&f.counter, 0, None);
         for (s, g) in f.scales.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -516,7 +579,7 @@ impl GpuHarris {
             });
             pass.set_pipeline(&pipes.nms);
             pass.set_bind_group(0, &g.nms, &[]);
-            pass.dispatch_workgroups(gx, gy, 1);
+            pass.dispatch_workgroups(g.grid_groups.0, g.grid_groups.1, 1);
         }
         enc.copy_buffer_to_buffer(&f.counter, 0, &f.counter_staging, 0, None);
     }
@@ -642,8 +705,12 @@ impl GpuHarris {
             .collect::<Result<Vec<_>>>()?;
         Ok(ResponseStack {
             responses,
-            width: width as usize,
-            height: height as usize,
+            grids: self
+                .plan
+                .scales
+                .iter()
+                .map(|sc| sc.grid(width as usize, height as usize))
+                .collect(),
         })
     }
 }
