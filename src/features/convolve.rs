@@ -28,6 +28,97 @@ fn parity(taps: &[f32]) -> Parity {
     }
 }
 
+/// One output row of a vertical pass: `out = Σ_t taps[t] · row(y + t − r)`, where `row`
+/// returns the (already clamped) input row of an index.
+#[inline]
+pub fn column_at<'a>(
+    row: impl Fn(isize) -> &'a [f32],
+    y: isize,
+    kernel: &Kernel1d,
+    out: &mut [f32],
+) {
+    let r = kernel.radius() as isize;
+    out.fill(0.0);
+    let par = parity(&kernel.taps);
+    if par == Parity::None {
+        for (i, &k) in kernel.taps.iter().enumerate() {
+            let src = row(y + i as isize - r);
+            fold_into(out, src, src, k, 0.0);
+        }
+        return;
+    }
+    let sign = if par == Parity::Even { 1.0 } else { -1.0 };
+    let centre = kernel.taps[r as usize];
+    if centre != 0.0 {
+        fold_into(out, row(y), row(y), centre, 0.0);
+    }
+    for t in 1..=r {
+        // taps[r + t] multiplies row y + t; taps[r − t] = sign · taps[r + t].
+        fold_into(
+            out,
+            row(y + t),
+            row(y - t),
+            kernel.taps[(r + t) as usize],
+            sign,
+        );
+    }
+}
+
+/// Copies `row` into `padded` with `r` clamped samples on each side.
+#[inline]
+fn pad_row(row: &[f32], r: usize, padded: &mut Vec<f32>) {
+    let width = row.len();
+    padded.resize(width + 2 * r, 0.0);
+    padded[..r].fill(row[0]);
+    padded[r..r + width].copy_from_slice(row);
+    padded[r + width..].fill(row[width - 1]);
+}
+
+/// One row of a horizontal pass evaluated every `step` samples:
+/// `out[i] = Σ_t taps[t] · row[clamp(i·step + t − r)]`; `padded` is scratch.
+#[inline]
+pub fn row_at(row: &[f32], kernel: &Kernel1d, step: usize, padded: &mut Vec<f32>, out: &mut [f32]) {
+    let r = kernel.radius();
+    let width = row.len();
+    pad_row(row, r, padded);
+    if step > 1 {
+        // A gather per output sample: the slice form would compute `step` times too much.
+        for (i, o) in out.iter_mut().enumerate() {
+            let window = &padded[i * step..i * step + 2 * r + 1];
+            *o = window.iter().zip(&kernel.taps).map(|(v, k)| v * k).sum();
+        }
+        return;
+    }
+    let par = parity(&kernel.taps);
+    out.fill(0.0);
+    if par == Parity::None {
+        for (i, &k) in kernel.taps.iter().enumerate() {
+            fold_into(out, &padded[i..i + width], &padded[i..i + width], k, 0.0);
+        }
+        return;
+    }
+    let sign = if par == Parity::Even { 1.0 } else { -1.0 };
+    let centre = kernel.taps[r];
+    if centre != 0.0 {
+        fold_into(
+            out,
+            &padded[r..r + width],
+            &padded[r..r + width],
+            centre,
+            0.0,
+        );
+    }
+    for t in 1..=r {
+        fold_into(
+            out,
+            &padded[r + t..r + t + width],
+            &padded[r - t..r - t + width],
+            kernel.taps[r + t],
+            sign,
+        );
+    }
+}
+
 /// Vertical pass: `dst[y][x] = Σ_t taps[t] · src[clamp(y + t)][x]`.
 pub fn convolve_columns(
     src: &[f32],
@@ -36,145 +127,23 @@ pub fn convolve_columns(
     height: usize,
     kernel: &Kernel1d,
 ) {
-    convolve_columns_strided(src, dst, width, height, kernel, 1);
-}
-
-/// Vertical pass evaluated on every `step`-th row only: `dst` has ⌈height/step⌉ rows and
-/// `dst[j][x] = Σ_t taps[t] · src[clamp(j·step + t)][x]`.
-pub fn convolve_columns_strided(
-    src: &[f32],
-    dst: &mut [f32],
-    width: usize,
-    height: usize,
-    kernel: &Kernel1d,
-    step: usize,
-) {
-    let r = kernel.radius() as isize;
-    let par = parity(&kernel.taps);
     let row = |y: isize| {
         let sy = y.clamp(0, height as isize - 1) as usize;
         &src[sy * width..(sy + 1) * width]
     };
     dst.par_chunks_mut(width)
-        .take(height.div_ceil(step))
+        .take(height)
         .enumerate()
-        .for_each(|(j, out)| {
-            let y = (j * step) as isize;
-            out.fill(0.0);
-            if par == Parity::None {
-                for (i, &k) in kernel.taps.iter().enumerate() {
-                    fold_into(
-                        out,
-                        row(y + i as isize - r),
-                        row(y + i as isize - r),
-                        k,
-                        0.0,
-                    );
-                }
-                return;
-            }
-            let sign = if par == Parity::Even { 1.0 } else { -1.0 };
-            let centre = kernel.taps[r as usize];
-            if centre != 0.0 {
-                fold_into(out, row(y), row(y), centre, 0.0);
-            }
-            for t in 1..=r {
-                // taps[r + t] multiplies src[y + t]; taps[r − t] = sign · taps[r + t].
-                fold_into(
-                    out,
-                    row(y + t),
-                    row(y - t),
-                    kernel.taps[(r + t) as usize],
-                    sign,
-                );
-            }
-        });
+        .for_each(|(y, out)| column_at(row, y as isize, kernel, out));
 }
 
 /// Horizontal pass: `dst[y][x] = Σ_t taps[t] · src[y][clamp(x + t)]`.
 pub fn convolve_rows(src: &[f32], dst: &mut [f32], width: usize, height: usize, kernel: &Kernel1d) {
-    convolve_rows_strided(src, dst, width, height, kernel, 1);
-}
-
-/// Horizontal pass evaluated on every `step`-th column only: `dst` rows have ⌈width/step⌉
-/// values and `dst[y][i] = Σ_t taps[t] · src[y][clamp(i·step + t)]`.
-pub fn convolve_rows_strided(
-    src: &[f32],
-    dst: &mut [f32],
-    width: usize,
-    height: usize,
-    kernel: &Kernel1d,
-    step: usize,
-) {
-    if step > 1 {
-        return convolve_rows_sampled(src, dst, width, height, kernel, step);
-    }
-    let r = kernel.radius();
-    let par = parity(&kernel.taps);
     dst.par_chunks_mut(width)
         .take(height)
         .enumerate()
         .for_each_init(Vec::new, |padded, (y, out)| {
-            let row = &src[y * width..(y + 1) * width];
-            padded.resize(width + 2 * r, 0.0);
-            padded[..r].fill(row[0]);
-            padded[r..r + width].copy_from_slice(row);
-            padded[r + width..].fill(row[width - 1]);
-            out.fill(0.0);
-            if par == Parity::None {
-                for (i, &k) in kernel.taps.iter().enumerate() {
-                    fold_into(out, &padded[i..i + width], &padded[i..i + width], k, 0.0);
-                }
-                return;
-            }
-            let sign = if par == Parity::Even { 1.0 } else { -1.0 };
-            let centre = kernel.taps[r];
-            if centre != 0.0 {
-                fold_into(
-                    out,
-                    &padded[r..r + width],
-                    &padded[r..r + width],
-                    centre,
-                    0.0,
-                );
-            }
-            for t in 1..=r {
-                fold_into(
-                    out,
-                    &padded[r + t..r + t + width],
-                    &padded[r - t..r - t + width],
-                    kernel.taps[r + t],
-                    sign,
-                );
-            }
-        });
-}
-
-/// The strided horizontal pass: a gather per output sample (the contiguous-slice form of
-/// [`convolve_rows`] would compute `step` times too many outputs).
-fn convolve_rows_sampled(
-    src: &[f32],
-    dst: &mut [f32],
-    width: usize,
-    height: usize,
-    kernel: &Kernel1d,
-    step: usize,
-) {
-    let r = kernel.radius();
-    let out_w = width.div_ceil(step);
-    dst.par_chunks_mut(out_w)
-        .take(height)
-        .enumerate()
-        .for_each_init(Vec::new, |padded: &mut Vec<f32>, (y, out)| {
-            let row = &src[y * width..(y + 1) * width];
-            padded.resize(width + 2 * r, 0.0);
-            padded[..r].fill(row[0]);
-            padded[r..r + width].copy_from_slice(row);
-            padded[r + width..].fill(row[width - 1]);
-            for (i, o) in out.iter_mut().enumerate() {
-                let window = &padded[i * step..i * step + 2 * r + 1];
-                *o = window.iter().zip(&kernel.taps).map(|(v, k)| v * k).sum();
-            }
+            row_at(&src[y * width..(y + 1) * width], kernel, 1, padded, out)
         });
 }
 

@@ -6,20 +6,16 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
-use super::convolve::{convolve_columns_strided, convolve_rows_strided, convolve_separable};
+use super::convolve::{column_at, convolve_separable, row_at};
 use super::simd::axpy;
 use super::steerable::{harris_response, HarrisPlan};
 use super::Candidate;
 
-/// Per-frame scratch planes, kept between frames of the same size.
+/// Response planes, kept between frames of the same size.
 #[derive(Default)]
 struct Workspace {
     width: usize,
     height: usize,
-    scratch: Vec<f32>,
-    derivatives: Vec<Vec<f32>>,
-    product: Vec<f32>,
-    blurred: Vec<Vec<f32>>,
     responses: Vec<Vec<f32>>,
 }
 
@@ -105,16 +101,10 @@ impl CpuHarris {
 
     fn compute(&self, ws: &mut Workspace, gray: &[f32], width: usize, height: usize) {
         let plan = &self.plan;
-        let n = width * height;
-        let planes = |count: usize| vec![vec![0.0f32; n]; count];
         if ws.width != width || ws.height != height || ws.responses.len() != plan.scales.len() {
             *ws = Workspace {
                 width,
                 height,
-                scratch: vec![0.0; n],
-                derivatives: planes(plan.derivative_count()),
-                product: vec![0.0; n],
-                blurred: planes(plan.products.len()),
                 responses: plan
                     .scales
                     .iter()
@@ -125,46 +115,20 @@ impl CpuHarris {
                     .collect(),
             };
         }
-        let Workspace {
-            scratch,
-            derivatives,
-            product,
-            blurred,
-            responses,
-            ..
-        } = ws;
-        for (s, scale) in plan.scales.iter().enumerate() {
-            for (d, filter) in derivatives.iter_mut().zip(&scale.derivatives) {
-                convolve_separable(gray, d, scratch, width, height, filter);
-            }
-            let step = scale.step as usize;
-            let (gw, gh) = scale.grid(width, height);
-            for (q, &(j, k)) in blurred.iter_mut().zip(&plan.products) {
-                let (a, b) = (&derivatives[j], &derivatives[k]);
-                product
-                    .par_iter_mut()
-                    .zip(a.par_iter().zip(b.par_iter()))
-                    .for_each(|(p, (x, y))| *p = x * y);
-                convolve_columns_strided(product, scratch, width, height, &scale.window, step);
-                convolve_rows_strided(scratch, q, width, gh, &scale.window, step);
-            }
-            tensor_responses(plan, blurred, &mut responses[s], gw * gh);
+        let terms = tensor_terms(plan);
+        for s in 0..plan.scales.len() {
+            scale_responses(plan, &terms, s, gray, width, height, &mut ws.responses[s]);
         }
     }
 }
 
-/// R = det M − k·tr² M for every orientation, M from the blurred products (eqs 7–8).
-///
-/// Pixels are processed in chunks small enough that the chunk's products stay in L1 while all
-/// N orientations are evaluated, with the arithmetic laid out across pixels so it vectorises.
-fn tensor_responses(plan: &HarrisPlan, blurred: &[Vec<f32>], out: &mut [f32], plane: usize) {
-    const CHUNK: usize = 256;
+/// Per orientation, the (product, weight) pairs of Mxx, Mxy and Myy that are non-zero (21 of
+/// 30 for the second-order basis).
+type TensorTerms = Vec<[Vec<(usize, f32)>; 3]>;
+
+fn tensor_terms(plan: &HarrisPlan) -> TensorTerms {
     let p = plan.products.len();
-    let k = plan.config.harris_k;
-    let orientations = plan.orientations.len();
-    // Each θ's tensor entries use only some of the products (21 of 30 weights are non-zero
-    // for the second-order basis): keep the (product, weight) pairs that matter.
-    let terms: Vec<[Vec<(usize, f32)>; 3]> = (0..orientations)
+    (0..plan.orientations.len())
         .map(|t| {
             let w = &plan.tensor_weights[t * 3 * p..(t + 1) * 3 * p];
             std::array::from_fn(|e| {
@@ -174,35 +138,139 @@ fn tensor_responses(plan: &HarrisPlan, blurred: &[Vec<f32>], out: &mut [f32], pl
                     .collect()
             })
         })
-        .collect();
+        .collect()
+}
+
+/// Thread-local buffers of one band.
+#[derive(Default)]
+struct BandScratch {
+    column: Vec<f32>,
+    padded: Vec<f32>,
+    derivatives: Vec<f32>,
+    products: Vec<f32>,
+    blurred_row: Vec<f32>,
+    q: Vec<f32>,
+    m: Vec<f32>,
+}
+
+/// Grid rows per parallel band: enough rows that the halo the window needs above and below
+/// (its radius) is a modest overhead, few enough that a band's planes stay in L2.
+const BAND_PIXEL_ROWS: usize = 48;
+
+/// Harris responses (eqs 5–8) of scale `s` on its grid, computed band by band: each band
+/// filters the image rows it needs into the derivative planes D_k, forms the products, blurs
+/// them with the window (columns, then rows at the grid step) and evaluates R for every
+/// orientation, all in buffers that stay in cache. The arithmetic is that of the plane-by-plane
+/// passes in [`super::convolve`] (same taps, same order).
+fn scale_responses(
+    plan: &HarrisPlan,
+    terms: &TensorTerms,
+    s: usize,
+    gray: &[f32],
+    width: usize,
+    height: usize,
+    out: &mut [f32],
+) {
+    let scale = &plan.scales[s];
+    let step = scale.step as usize;
+    let (gw, gh) = scale.grid(width, height);
+    let plane = gw * gh;
+    let count = scale.derivatives.len();
+    let products = plan.products.len();
+    let rw = scale.window.radius();
+    let k = plan.config.harris_k;
+    let band_rows = (BAND_PIXEL_ROWS / step).max(1);
     let out_ptr = SharedOut(out.as_mut_ptr());
-    (0..plane.div_ceil(CHUNK)).into_par_iter().for_each(|c| {
-        let out_ptr = &out_ptr;
-        let start = c * CHUNK;
-        let len = CHUNK.min(plane - start);
-        let mut m = [[0.0f32; CHUNK]; 3];
-        for (t, entries) in terms.iter().enumerate() {
-            for (acc, list) in m.iter_mut().zip(entries) {
-                let acc = &mut acc[..len];
-                acc.fill(0.0);
-                for &(q, w) in list {
-                    axpy(acc, &blurred[q][start..start + len], w);
+    let image_row = |y: isize| {
+        let sy = y.clamp(0, height as isize - 1) as usize;
+        &gray[sy * width..(sy + 1) * width]
+    };
+    (0..gh.div_ceil(band_rows))
+        .into_par_iter()
+        .for_each_init(BandScratch::default, |b, band| {
+            let out_ptr = &out_ptr;
+            let (j0, j1) = (band * band_rows, ((band + 1) * band_rows).min(gh));
+            let y_lo = (j0 * step).saturating_sub(rw);
+            let y_hi = ((j1 - 1) * step + rw).min(height - 1);
+            let rows = y_hi - y_lo + 1;
+            b.column.resize(width, 0.0);
+            b.derivatives.resize(count * rows * width, 0.0);
+            b.products.resize(products * rows * width, 0.0);
+            b.blurred_row.resize(width, 0.0);
+            b.q.resize(products * gw, 0.0);
+            b.m.resize(3 * gw, 0.0);
+            // Derivative planes D_k on the band's rows (eqs 5–6 through the steerable basis).
+            for (kk, filter) in scale.derivatives.iter().enumerate() {
+                for y in y_lo..=y_hi {
+                    column_at(image_row, y as isize, &filter.column, &mut b.column);
+                    let o = (kk * rows + y - y_lo) * width;
+                    row_at(
+                        &b.column,
+                        &filter.row,
+                        1,
+                        &mut b.padded,
+                        &mut b.derivatives[o..o + width],
+                    );
                 }
             }
-            // SAFETY: chunk c writes only indices t*plane + [start, start+len) of `out`, which
-            // no other chunk touches, and `out` outlives the parallel loop.
-            let r =
-                unsafe { std::slice::from_raw_parts_mut(out_ptr.0.add(t * plane + start), len) };
-            for (i, r) in r.iter_mut().enumerate() {
-                *r = harris_response(m[0][i], m[1][i], m[2][i], k);
+            // Products D_j D_k (the integrands of eq 7).
+            for (p, &(a, c)) in plan.products.iter().enumerate() {
+                let (da, dc) = (
+                    &b.derivatives[a * rows * width..(a + 1) * rows * width],
+                    &b.derivatives[c * rows * width..(c + 1) * rows * width],
+                );
+                for ((o, &x), &y) in b.products[p * rows * width..(p + 1) * rows * width]
+                    .iter_mut()
+                    .zip(da)
+                    .zip(dc)
+                {
+                    *o = x * y;
+                }
             }
-        }
-    });
+            for j in j0..j1 {
+                // Window blur of every product at grid row j (columns, then rows at the step).
+                for p in 0..products {
+                    let band_plane = &b.products[p * rows * width..(p + 1) * rows * width];
+                    let row = |y: isize| {
+                        let sy = y.clamp(0, height as isize - 1) as usize - y_lo;
+                        &band_plane[sy * width..(sy + 1) * width]
+                    };
+                    column_at(row, (j * step) as isize, &scale.window, &mut b.blurred_row);
+                    row_at(
+                        &b.blurred_row,
+                        &scale.window,
+                        step,
+                        &mut b.padded,
+                        &mut b.q[p * gw..(p + 1) * gw],
+                    );
+                }
+                // R = det M − k tr² M for every orientation (eq 8).
+                for (t, entries) in terms.iter().enumerate() {
+                    for (e, list) in entries.iter().enumerate() {
+                        let acc = &mut b.m[e * gw..(e + 1) * gw];
+                        acc.fill(0.0);
+                        for &(q, w) in list {
+                            axpy(acc, &b.q[q * gw..(q + 1) * gw], w);
+                        }
+                    }
+                    // SAFETY: band `band` writes only grid rows [j0, j1) of each orientation plane,
+                    // which no other band touches, and `out` outlives the parallel loop.
+                    let r = unsafe {
+                        std::slice::from_raw_parts_mut(out_ptr.0.add(t * plane + j * gw), gw)
+                    };
+                    let (mxx, rest) = b.m.split_at(gw);
+                    let (mxy, myy) = rest.split_at(gw);
+                    for (i, r) in r.iter_mut().enumerate() {
+                        *r = harris_response(mxx[i], mxy[i], myy[i], k);
+                    }
+                }
+            }
+        });
 }
 
 /// The response planes' base pointer, shared by the chunks that write disjoint ranges of it.
 struct SharedOut(*mut f32);
-// SAFETY: only used for the disjoint writes in `tensor_responses`.
+// SAFETY: only used for the disjoint writes in `scale_responses`.
 unsafe impl Sync for SharedOut {}
 
 /// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each, around the
