@@ -75,20 +75,37 @@ fn pad_row(row: &[f32], r: usize, padded: &mut Vec<f32>) {
 }
 
 /// One row of a horizontal pass evaluated every `step` samples:
-/// `out[i] = Σ_t taps[t] · row[clamp(i·step + t − r)]`; `padded` is scratch.
+/// `out[i] = Σ_t taps[t] · row[clamp(i·step + t − r)]`; `scratch` holds the padded row (and,
+/// when subsampling, the full-resolution result: the vectorised row then a pick of every
+/// `step`-th sample beats a scalar gather per sample).
 #[inline]
-pub fn row_at(row: &[f32], kernel: &Kernel1d, step: usize, padded: &mut Vec<f32>, out: &mut [f32]) {
+pub fn row_at(
+    row: &[f32],
+    kernel: &Kernel1d,
+    step: usize,
+    scratch: &mut Vec<f32>,
+    out: &mut [f32],
+) {
     let r = kernel.radius();
     let width = row.len();
-    pad_row(row, r, padded);
+    pad_row(row, r, scratch);
     if step > 1 {
-        // A gather per output sample: the slice form would compute `step` times too much.
-        for (i, o) in out.iter_mut().enumerate() {
-            let window = &padded[i * step..i * step + 2 * r + 1];
-            *o = window.iter().zip(&kernel.taps).map(|(v, k)| v * k).sum();
+        scratch.resize(2 * width + 2 * r, 0.0);
+        let (padded, full) = scratch.split_at_mut(width + 2 * r);
+        fold_padded(padded, kernel, full);
+        for (o, v) in out.iter_mut().zip(full.iter().step_by(step)) {
+            *o = *v;
         }
-        return;
+    } else {
+        fold_padded(&scratch[..width + 2 * r], kernel, out);
     }
+}
+
+/// `out[x] = Σ_i taps[i] · padded[x + i]`, folded for (anti)symmetric kernels.
+#[inline]
+fn fold_padded(padded: &[f32], kernel: &Kernel1d, out: &mut [f32]) {
+    let r = kernel.radius();
+    let width = out.len();
     let par = parity(&kernel.taps);
     out.fill(0.0);
     if par == Parity::None {

@@ -303,7 +303,6 @@ pub fn suppress(
                 &responses[sc][t * w * h..(t + 1) * w * h]
             };
             let cur = plane_of(s);
-            let at = |x: usize, y: usize| cur[y * gw + x];
             // Is v at least every value of scale sc's 3×3 neighbourhood around pixel (px, py)?
             let across = |sc: usize, px: usize, py: usize, v: f32| {
                 let (w, h) = grids[sc];
@@ -320,21 +319,35 @@ pub fn suppress(
             if gw <= 2 * m || gh <= 2 * m {
                 return out.into_iter();
             }
+            let mut maxima = vec![false; gw];
             for y in m..gh - m {
+                // Strict maxima of the 3×3 same-scale neighbourhood above the threshold, in a
+                // branch-free pass the compiler vectorises; the rare survivors get the rest.
+                let (up, mid, down) = (
+                    &cur[(y - 1) * gw..y * gw],
+                    &cur[y * gw..(y + 1) * gw],
+                    &cur[(y + 1) * gw..(y + 2) * gw],
+                );
                 for x in m..gw - m {
-                    let v = at(x, y);
-                    if v.is_nan() || v <= threshold {
-                        continue;
-                    }
-                    // Same-scale neighbours first: they reject most samples and are in cache.
-                    let spatial = (0..9).all(|i| i == 4 || at(x + i % 3 - 1, y + i / 3 - 1) < v);
+                    let v = mid[x];
+                    maxima[x] = (v > threshold)
+                        & (v > mid[x - 1])
+                        & (v > mid[x + 1])
+                        & (v > up[x - 1])
+                        & (v > up[x])
+                        & (v > up[x + 1])
+                        & (v > down[x - 1])
+                        & (v > down[x])
+                        & (v > down[x + 1]);
+                }
+                for x in (m..gw - m).filter(|&x| maxima[x]) {
+                    let v = mid[x];
                     let (px, py) = (x * g, y * g);
-                    let keep = spatial
-                        && (s == 0 || across(s - 1, px, py, v))
+                    let keep = (s == 0 || across(s - 1, px, py, v))
                         && (s + 1 == scales || across(s + 1, px, py, v));
                     if keep {
-                        let ox = parabola_offset(at(x - 1, y), v, at(x + 1, y));
-                        let oy = parabola_offset(at(x, y - 1), v, at(x, y + 1));
+                        let ox = parabola_offset(mid[x - 1], v, mid[x + 1]);
+                        let oy = parabola_offset(up[x], v, down[x]);
                         out.push(Candidate {
                             x: (x as f32 + ox) * g as f32,
                             y: (y as f32 + oy) * g as f32,
