@@ -93,12 +93,14 @@ fn argmax(v: &[f64]) -> usize {
         .0
 }
 
-/// A uniform grid over points for radius queries.
+/// A uniform grid over a fixed set of points for radius queries, stored compactly (the
+/// points of cell c are `items[start[c]..start[c + 1]]`).
 struct Grid {
     cell: f32,
     cols: usize,
     rows: usize,
-    buckets: Vec<Vec<usize>>,
+    start: Vec<u32>,
+    items: Vec<u32>,
 }
 
 impl Grid {
@@ -114,11 +116,20 @@ impl Grid {
             cell,
             cols,
             rows,
-            buckets: vec![Vec::new(); cols * rows],
+            start: vec![0; cols * rows + 1],
+            items: vec![0; points.len()],
         };
-        for (i, &p) in points.iter().enumerate() {
-            let b = g.bucket(p);
-            g.buckets[b].push(i);
+        let cells: Vec<usize> = points.iter().map(|&p| g.bucket(p)).collect();
+        for &c in &cells {
+            g.start[c + 1] += 1;
+        }
+        for c in 0..cols * rows {
+            g.start[c + 1] += g.start[c];
+        }
+        let mut fill = g.start.clone();
+        for (i, &c) in cells.iter().enumerate() {
+            g.items[fill[c] as usize] = i as u32;
+            fill[c] += 1;
         }
         g
     }
@@ -134,10 +145,15 @@ impl Grid {
     /// Indices stored in the 3×3 cells around `p` (covers every point within `cell`).
     fn near(&self, p: (f32, f32)) -> impl Iterator<Item = usize> + '_ {
         let (cx, cy) = self.coords(p);
-        let xs = cx.saturating_sub(1)..=(cx + 1).min(self.cols - 1);
-        let ys = cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1);
-        ys.flat_map(move |y| xs.clone().map(move |x| y * self.cols + x))
-            .flat_map(move |b| self.buckets[b].iter().copied())
+        let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(self.cols - 1));
+        (cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1)).flat_map(move |y| {
+            // Cells x0..=x1 of one grid row are contiguous in `items`.
+            let (a, b) = (
+                self.start[y * self.cols + x0] as usize,
+                self.start[y * self.cols + x1 + 1] as usize,
+            );
+            self.items[a..b].iter().map(|&i| i as usize)
+        })
     }
 }
 
@@ -156,34 +172,34 @@ pub fn merge(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Cluster> {
         MergeMode::Covariant => covariant_stage1(candidates, plan),
         MergeMode::KmeansPp => kmeans_pp_stage1(candidates, plan),
     };
-    let mut clusters = merge_close(stats, cfg.merge_radius);
-    clusters.truncate(cfg.max_keypoints);
-    clusters
+    merge_close(stats, cfg.merge_radius, cfg.max_keypoints)
 }
 
 /// Stage 1, covariant: radius-suppression seeds, then confined Lloyd iterations.
 fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let r = plan.config.merge_radius;
     let points: Vec<(f32, f32)> = candidates.iter().map(|c| (c.x, c.y)).collect();
+    // Radius suppression, strongest first: a candidate becomes a seed unless a seed lies
+    // within r. Seeds are a subset of the candidates, so a grid over the candidates, marking
+    // which ones became seeds, answers the query.
+    let grid = Grid::new(&points, r);
+    let mut is_seed = vec![false; points.len()];
     let mut seeds: Vec<(f32, f32)> = Vec::new();
-    {
-        let mut grid = Grid::new(&points, r);
-        grid.buckets.iter_mut().for_each(Vec::clear);
-        for &p in &points {
-            if grid.near(p).all(|i| dist2(seeds[i], p) > r * r) {
-                let b = grid.bucket(p);
-                grid.buckets[b].push(seeds.len());
-                seeds.push(p);
-            }
+    for (i, &p) in points.iter().enumerate() {
+        if grid
+            .near(p)
+            .all(|j| !is_seed[j] || dist2(points[j], p) > r * r)
+        {
+            is_seed[i] = true;
+            seeds.push(p);
         }
     }
     let reach = 1.5 * r;
-    let (ns, no) = (plan.scales.len(), plan.orientations.len());
     let mut centres = seeds;
-    let mut stats = Vec::new();
-    for _ in 0..3 {
+    let mut assignment: Vec<Option<usize>> = Vec::new();
+    for iteration in 0..3 {
         let grid = Grid::new(&centres, reach);
-        let assignment: Vec<Option<usize>> = points
+        assignment = points
             .par_iter()
             .map(|&p| {
                 grid.near(p)
@@ -193,24 +209,42 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
                     .map(|(_, i)| i)
             })
             .collect();
-        stats = vec![Stats::new(ns, no); centres.len()];
+        if iteration == 2 {
+            break;
+        }
+        // Response-weighted means of the members (positions only: the full statistics are
+        // gathered once, after the last assignment).
+        let mut sums = vec![(0.0f64, 0.0f64, 0.0f64); centres.len()];
         for (c, a) in candidates.iter().zip(&assignment) {
-            if let Some(i) = a {
-                stats[*i].add(c);
+            if let Some(i) = *a {
+                let w = c.response.max(1e-20) as f64;
+                sums[i].0 += w;
+                sums[i].1 += w * c.x as f64;
+                sums[i].2 += w * c.y as f64;
             }
         }
-        stats.retain(|s| s.count > 0);
-        let moved: Vec<(f32, f32)> = stats.iter().map(Stats::centre).collect();
-        let settled = moved.len() == centres.len()
-            && moved
-                .iter()
-                .zip(&centres)
-                .all(|(a, b)| dist2(*a, *b) < 1e-6);
-        centres = moved;
+        let moved: Vec<Option<(f32, f32)>> = sums
+            .iter()
+            .map(|&(w, sx, sy)| (w > 0.0).then(|| ((sx / w) as f32, (sy / w) as f32)))
+            .collect();
+        let settled = moved
+            .iter()
+            .zip(&centres)
+            .all(|(m, c)| m.is_some_and(|m| dist2(m, *c) < 1e-6));
         if settled {
             break;
         }
+        // Empty clusters disappear; renumbering keeps the order (and so the tie-breaks).
+        centres = moved.into_iter().flatten().collect();
     }
+    let (ns, no) = (plan.scales.len(), plan.orientations.len());
+    let mut stats = vec![Stats::new(ns, no); centres.len()];
+    for (c, a) in candidates.iter().zip(&assignment) {
+        if let Some(i) = *a {
+            stats[i].add(c);
+        }
+    }
+    stats.retain(|s| s.count > 0);
     stats
 }
 
@@ -281,7 +315,9 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
 }
 
 /// Stage 2: strongest first, each cluster absorbs the weaker ones whose means lie within r.
-fn merge_close(mut stats: Vec<Stats>, r: f32) -> Vec<Cluster> {
+/// Clusters come out strongest first (an absorbed cluster is weaker than its absorber), so
+/// the loop stops at `limit`.
+fn merge_close(mut stats: Vec<Stats>, r: f32, limit: usize) -> Vec<Cluster> {
     stats.sort_by(|a, b| {
         let (ca, cb) = (a.centre(), b.centre());
         b.max
@@ -294,6 +330,9 @@ fn merge_close(mut stats: Vec<Stats>, r: f32) -> Vec<Cluster> {
     let mut absorbed = vec![false; stats.len()];
     let mut out = Vec::new();
     for i in 0..stats.len() {
+        if out.len() == limit {
+            break;
+        }
         if absorbed[i] {
             continue;
         }
@@ -331,6 +370,26 @@ mod tests {
             y,
             response: r,
             packed: Candidate::pack(s, t),
+        }
+    }
+
+    #[test]
+    fn grid_finds_every_point_within_a_cell() {
+        let mut rng = crate::synth::Rng(3);
+        let pts: Vec<(f32, f32)> = (0..2000)
+            .map(|_| (rng.range(0.0, 300.0), rng.range(0.0, 200.0)))
+            .collect();
+        let grid = Grid::new(&pts, 3.0);
+        for q in pts.iter().step_by(7) {
+            let mut found: Vec<usize> = grid
+                .near(*q)
+                .filter(|&i| dist2(pts[i], *q) <= 9.0)
+                .collect();
+            found.sort_unstable();
+            let expected: Vec<usize> = (0..pts.len())
+                .filter(|&i| dist2(pts[i], *q) <= 9.0)
+                .collect();
+            assert_eq!(found, expected);
         }
     }
 
