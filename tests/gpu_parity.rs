@@ -1,6 +1,8 @@
 //! GPU-versus-CPU parity of every stage, with the tolerances stated in README.md:
 //! derivative planes and steered filter-bank images within 1e-4 of the plane's largest
-//! magnitude; Harris responses within 1e-3 of the largest response of their plane; final
+//! magnitude; Harris responses within 1e-3 of the largest response of their plane; candidate
+//! lists: 98% of maxima found by both with the same scale and orientation, positions within
+//! 0.01 px and responses within 1e-3 relative; final
 //! keypoints: at least 95% of each backend's keypoints have a twin within 0.5 px in the other's.
 
 mod common;
@@ -89,6 +91,41 @@ fn derivatives_and_responses_match_cpu() {
             );
         }
     }
+}
+
+#[test]
+fn candidate_lists_match_cpu() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let frame = textured_scene(W, H, 10);
+    let cfg = DetectorConfig::default();
+    let (g, gt, ..) = Detector::new(&cfg, Backend::Gpu)
+        .unwrap()
+        .candidates(&frame)
+        .unwrap();
+    let (c, ct, ..) = Detector::new(&cfg, Backend::Cpu)
+        .unwrap()
+        .candidates(&frame)
+        .unwrap();
+    assert_eq!(gt, ct);
+    assert!(c.len() > 100, "{} candidates", c.len());
+    // The same maxima (scale, orientation, position within 0.01 px, response within 1e-3
+    // relative) for all but near-ties; NMS of nearly equal neighbours may flip.
+    let twin = |a: &steernav::features::Candidate, list: &[steernav::features::Candidate]| {
+        list.iter().any(|b| {
+            a.packed == b.packed
+                && (a.x - b.x).abs() < 0.01
+                && (a.y - b.y).abs() < 0.01
+                && (a.response - b.response).abs() <= 1e-3 * a.response.abs()
+        })
+    };
+    let matched = c.iter().filter(|a| twin(a, &g)).count() as f64 / c.len() as f64;
+    let back = g.iter().filter(|a| twin(a, &c)).count() as f64 / g.len() as f64;
+    assert!(
+        matched >= 0.98 && back >= 0.98,
+        "cpu→gpu {matched}, gpu→cpu {back}"
+    );
 }
 
 fn keypoints(d: &steernav::Detection) -> Vec<(f32, f32)> {
