@@ -53,31 +53,30 @@ fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
     return 0.0;
 }
 
-// Largest value of a 3x3 neighbourhood of another scale's grid around pixel (px, py).
-fn prev_max(t: u32, px: u32, py: u32) -> f32 {
-    let s = params.prev_step;
-    let cx = (px + s / 2u) / s;
-    let cy = (py + s / 2u) / s;
-    let base = t * params.prev_width * params.prev_height;
-    var m = -3.4e38;
-    for (var i = 0u; i < 9u; i++) {
-        let nx = min(max(cx + i % 3u, 1u) - 1u, params.prev_width - 1u);
-        let ny = min(max(cy + i / 3u, 1u) - 1u, params.prev_height - 1u);
-        m = max(m, prev[base + ny * params.prev_width + nx]);
+// Largest value of the 3x3 neighbourhood around pixel (px, py) on the grid of the previous
+// (which = 0) or next (which = 1) scale, for orientation t.
+fn adjacent_max(which: u32, t: u32, px: u32, py: u32) -> f32 {
+    var w = params.prev_width;
+    var h = params.prev_height;
+    var s = params.prev_step;
+    if (which == 1u) {
+        w = params.next_width;
+        h = params.next_height;
+        s = params.next_step;
     }
-    return m;
-}
-
-fn next_max(t: u32, px: u32, py: u32) -> f32 {
-    let s = params.next_step;
     let cx = (px + s / 2u) / s;
     let cy = (py + s / 2u) / s;
-    let base = t * params.next_width * params.next_height;
+    let base = t * w * h;
     var m = -3.4e38;
     for (var i = 0u; i < 9u; i++) {
-        let nx = min(max(cx + i % 3u, 1u) - 1u, params.next_width - 1u);
-        let ny = min(max(cy + i / 3u, 1u) - 1u, params.next_height - 1u);
-        m = max(m, next[base + ny * params.next_width + nx]);
+        let nx = min(max(cx + i % 3u, 1u) - 1u, w - 1u);
+        let ny = min(max(cy + i / 3u, 1u) - 1u, h - 1u);
+        let n = base + ny * w + nx;
+        if (which == 0u) {
+            m = max(m, prev[n]);
+        } else {
+            m = max(m, next[n]);
+        }
     }
     return m;
 }
@@ -108,10 +107,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let px = gid.x * params.step;
         let py = gid.y * params.step;
-        if (keep && params.has_prev == 1u && prev_max(t, px, py) > v) {
+        if (keep && params.has_prev == 1u && adjacent_max(0u, t, px, py) > v) {
             keep = false;
         }
-        if (keep && params.has_next == 1u && next_max(t, px, py) > v) {
+        if (keep && params.has_next == 1u && adjacent_max(1u, t, px, py) > v) {
             keep = false;
         }
         if (keep) {
