@@ -135,8 +135,8 @@ pub struct ScalePlan {
     pub margin: u32,
     /// Sampling step of this scale's response grid (1, 2, 4 …): the window-blurred products
     /// are smooth at σ_I, so the blur's output, the responses and the suppression are computed
-    /// every `step` pixels only (step = largest power of two ≤ σ_I / 1.4, so aliasing stays
-    /// below exp(−π²·1.4²/2) ≈ 6e-5 of the signal).
+    /// every `step` pixels only (step = largest power of two ≤ σ_I / 1.05: the window's
+    /// response at the grid's Nyquist frequency is at most exp(−π²·1.05²/2) ≈ 0.4%).
     pub step: u32,
 }
 
@@ -156,7 +156,7 @@ impl ScalePlan {
 /// The grid step of a scale with integration scale `sigma_i`.
 pub fn grid_step(sigma_i: f32) -> u32 {
     let mut step = 1u32;
-    while sigma_i / (2 * step) as f32 >= 1.4 && step < 64 {
+    while sigma_i / (2 * step) as f32 >= 1.05 && step < 64 {
         step *= 2;
     }
     step
