@@ -48,7 +48,8 @@ impl CpuHarris {
         &self.plan
     }
 
-    /// Derivative images D_k of scale `s` (scale-normalised), for parity tests.
+    /// Derivative planes D_k of scale `s` (scale-normalised) at the samples of the scale's
+    /// grid, for parity tests.
     pub fn derivatives(
         &self,
         gray: &[f32],
@@ -56,14 +57,19 @@ impl CpuHarris {
         height: usize,
         s: usize,
     ) -> Vec<Vec<f32>> {
+        let scale = &self.plan.scales[s];
+        let g = scale.step as usize;
         let mut scratch = vec![0.0; width * height];
-        self.plan.scales[s]
+        let mut full = vec![0.0; width * height];
+        scale
             .derivatives
             .iter()
             .map(|f| {
-                let mut out = vec![0.0; width * height];
-                convolve_separable(gray, &mut out, &mut scratch, width, height, f);
-                out
+                convolve_separable(gray, &mut full, &mut scratch, width, height, f);
+                full.chunks(width)
+                    .step_by(g)
+                    .flat_map(|row| row.iter().step_by(g).copied())
+                    .collect()
             })
             .collect()
     }
@@ -158,10 +164,10 @@ struct BandScratch {
 const BAND_PIXEL_ROWS: usize = 48;
 
 /// Harris responses (eqs 5–8) of scale `s` on its grid, computed band by band: each band
-/// filters the image rows it needs into the derivative planes D_k, forms the products, blurs
-/// them with the window (columns, then rows at the grid step) and evaluates R for every
-/// orientation, all in buffers that stay in cache. The arithmetic is that of the plane-by-plane
-/// passes in [`super::convolve`] (same taps, same order).
+/// filters the image into the derivative planes D_k at the grid's samples, forms their
+/// products, blurs them with the window on the grid (columns, then rows) and evaluates R for
+/// every orientation, all in buffers that stay in cache. The arithmetic is that of the
+/// GPU's passes (same taps and clamping; folded sums).
 fn scale_responses(
     plan: &HarrisPlan,
     terms: &TensorTerms,
@@ -189,37 +195,43 @@ fn scale_responses(
         .into_par_iter()
         .for_each_init(BandScratch::default, |b, band| {
             let out_ptr = &out_ptr;
+            // Grid rows [j0, j1) of output need grid rows [jl, jh] of products.
             let (j0, j1) = (band * band_rows, ((band + 1) * band_rows).min(gh));
-            let y_lo = (j0 * step).saturating_sub(rw);
-            let y_hi = ((j1 - 1) * step + rw).min(height - 1);
-            let rows = y_hi - y_lo + 1;
+            let jl = j0.saturating_sub(rw);
+            let jh = (j1 - 1 + rw).min(gh - 1);
+            let rows = jh - jl + 1;
             b.column.resize(width, 0.0);
-            b.derivatives.resize(count * rows * width, 0.0);
-            b.products.resize(products * rows * width, 0.0);
-            b.blurred_row.resize(width, 0.0);
+            b.derivatives.resize(count * rows * gw, 0.0);
+            b.products.resize(products * rows * gw, 0.0);
+            b.blurred_row.resize(gw, 0.0);
             b.q.resize(products * gw, 0.0);
             b.m.resize(3 * gw, 0.0);
-            // Derivative planes D_k on the band's rows (eqs 5–6 through the steerable basis).
+            // Derivative planes D_k at the grid's samples (eqs 5–6 through the steerable basis).
             for (kk, filter) in scale.derivatives.iter().enumerate() {
-                for y in y_lo..=y_hi {
-                    column_at(image_row, y as isize, &filter.column, &mut b.column);
-                    let o = (kk * rows + y - y_lo) * width;
+                for jj in jl..=jh {
+                    column_at(
+                        image_row,
+                        (jj * step) as isize,
+                        &filter.column,
+                        &mut b.column,
+                    );
+                    let o = (kk * rows + jj - jl) * gw;
                     row_at(
                         &b.column,
                         &filter.row,
-                        1,
+                        step,
                         &mut b.padded,
-                        &mut b.derivatives[o..o + width],
+                        &mut b.derivatives[o..o + gw],
                     );
                 }
             }
             // Products D_j D_k (the integrands of eq 7).
             for (p, &(a, c)) in plan.products.iter().enumerate() {
                 let (da, dc) = (
-                    &b.derivatives[a * rows * width..(a + 1) * rows * width],
-                    &b.derivatives[c * rows * width..(c + 1) * rows * width],
+                    &b.derivatives[a * rows * gw..(a + 1) * rows * gw],
+                    &b.derivatives[c * rows * gw..(c + 1) * rows * gw],
                 );
-                for ((o, &x), &y) in b.products[p * rows * width..(p + 1) * rows * width]
+                for ((o, &x), &y) in b.products[p * rows * gw..(p + 1) * rows * gw]
                     .iter_mut()
                     .zip(da)
                     .zip(dc)
@@ -228,18 +240,18 @@ fn scale_responses(
                 }
             }
             for j in j0..j1 {
-                // Window blur of every product at grid row j (columns, then rows at the step).
+                // Window blur of every product at grid row j (columns, then rows).
                 for p in 0..products {
-                    let band_plane = &b.products[p * rows * width..(p + 1) * rows * width];
-                    let row = |y: isize| {
-                        let sy = y.clamp(0, height as isize - 1) as usize - y_lo;
-                        &band_plane[sy * width..(sy + 1) * width]
+                    let band_plane = &b.products[p * rows * gw..(p + 1) * rows * gw];
+                    let row = |jj: isize| {
+                        let r = jj.clamp(0, gh as isize - 1) as usize - jl;
+                        &band_plane[r * gw..(r + 1) * gw]
                     };
-                    column_at(row, (j * step) as isize, &scale.window, &mut b.blurred_row);
+                    column_at(row, j as isize, &scale.window, &mut b.blurred_row);
                     row_at(
                         &b.blurred_row,
                         &scale.window,
-                        step,
+                        1,
                         &mut b.padded,
                         &mut b.q[p * gw..(p + 1) * gw],
                     );

@@ -129,14 +129,17 @@ pub struct ScalePlan {
     pub sigma_i: f32,
     /// The n+2 derivative filters D_k at σ_e, scale-normalised by σ_e^p.
     pub derivatives: Vec<Separable>,
-    /// The integration window w(σ_I) (eq 7), used along both axes.
+    /// The integration window w(σ_I) (eq 7), used along both axes, in grid units: a Gaussian
+    /// of σ_I / step applied to the products sampled on the scale's grid.
     pub window: Kernel1d,
     /// Border margin in pixels: no candidate closer to the border.
     pub margin: u32,
-    /// Sampling step of this scale's response grid (1, 2, 4 …): the window-blurred products
-    /// are smooth at σ_I, so the blur's output, the responses and the suppression are computed
-    /// every `step` pixels only (step = largest power of two ≤ σ_I / 1.05: the window's
-    /// response at the grid's Nyquist frequency is at most exp(−π²·1.05²/2) ≈ 0.4%).
+    /// Sampling step of this scale's grid (1, 2, 4 …). The derivative planes are sampled every
+    /// `step` pixels and the products, their window blur, the responses and the suppression
+    /// all live on that grid: the window integral of eq 7 becomes a sum over the grid's
+    /// samples, accurate because the window is wide against the step (step = largest power
+    /// of two ≤ σ_I / 1.05: the window passes at most exp(−π²·1.05²/2) ≈ 0.4% at the grid's
+    /// Nyquist frequency).
     pub step: u32,
 }
 
@@ -225,7 +228,11 @@ impl HarrisPlan {
                     sigma_d,
                     sigma_i: config.sigma_i(s),
                     derivatives,
-                    window: Kernel1d::gaussian_derivative(config.sigma_i(s), 0, config.truncate),
+                    window: Kernel1d::gaussian_derivative(
+                        config.sigma_i(s) / grid_step(config.sigma_i(s)) as f32,
+                        0,
+                        config.truncate,
+                    ),
                     margin: config.margin(s),
                     step: grid_step(config.sigma_i(s)),
                 }

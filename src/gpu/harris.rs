@@ -131,8 +131,8 @@ pub struct GpuTimings {
 
 /// Bind groups and job counts of one scale.
 struct ScaleGroups {
-    /// Workgroups covering the full-resolution plane, the blur's column output and the grid.
-    full_groups: (u32, u32),
+    /// Workgroups covering the derivative column pass's output (full width, grid rows) and
+    /// the scale's grid.
     column_groups: (u32, u32),
     grid_groups: (u32, u32),
     derivative_columns: wgpu::BindGroup,
@@ -329,17 +329,6 @@ impl GpuHarris {
         });
         let counter_staging = staging(device, "counter readback", 4);
         let candidate_staging = staging(device, "candidate readback", capacity * 16);
-        let full_dims = uniform(device, "dims", &Dims::pass(width, height, 1, false));
-        let product_params = uniform(
-            device,
-            "products",
-            &ProductParams {
-                width,
-                height,
-                plane: plane as u32,
-                count: count as u32,
-            },
-        );
         let nms_settings = uniform(
             device,
             "nms settings",
@@ -393,10 +382,29 @@ impl GpuHarris {
                 let step = plan.scales[s].step;
                 let (gw, gh) = grids[s];
                 let (ps, ns) = (s.saturating_sub(1), (s + 1).min(plan.scales.len() - 1));
+                // Derivatives sampled on the grid: columns at every step-th row, then rows
+                // at every step-th column; products and window blur on the grid.
                 let column_dims = Dims::pass(width, height, step, false);
-                let row_dims = Dims::pass(width, column_dims.dst_height, step, true);
-                let blur_column_dims = uniform(device, "blur column dims", &column_dims);
-                let blur_row_dims = uniform(device, "blur row dims", &row_dims);
+                let derivative_column_dims =
+                    uniform(device, "derivative column dims", &column_dims);
+                let derivative_row_dims = uniform(
+                    device,
+                    "derivative row dims",
+                    &Dims::pass(width, gh, step, true),
+                );
+                let blur_column_dims =
+                    uniform(device, "blur column dims", &Dims::pass(gw, gh, 1, false));
+                let blur_row_dims = uniform(device, "blur row dims", &Dims::pass(gw, gh, 1, true));
+                let product_params = uniform(
+                    device,
+                    "products",
+                    &ProductParams {
+                        width: gw,
+                        height: gh,
+                        plane: gw * gh,
+                        count: count as u32,
+                    },
+                );
                 let response_params = uniform(
                     device,
                     "response",
@@ -435,18 +443,17 @@ impl GpuHarris {
                 let prev = &responses[s.saturating_sub(1)];
                 let next = &responses[(s + 1).min(plan.scales.len() - 1)];
                 ScaleGroups {
-                    full_groups: groups_2d(width, height),
                     column_groups: groups_2d(width, column_dims.dst_height),
                     grid_groups: groups_2d(gw, gh),
                     derivative_columns: bind(
                         device,
                         &pipes.convolve_columns,
-                        &[&full_dims, &dc, &self.taps, &gray, &tmp],
+                        &[&derivative_column_dims, &dc, &self.taps, &gray, &tmp],
                     ),
                     derivative_rows: bind(
                         device,
                         &pipes.convolve_rows,
-                        &[&full_dims, &dr, &self.taps, &tmp, &derivatives],
+                        &[&derivative_row_dims, &dr, &self.taps, &tmp, &derivatives],
                     ),
                     products: bind(
                         device,
@@ -522,7 +529,7 @@ impl GpuHarris {
                         end_of_pass_write_index: Some(8 * s as u32 + 2 * i + 1),
                     })
             };
-            let (gx, gy) = g.full_groups;
+            let (gx, gy) = g.grid_groups;
             {
                 let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                     label: Some("filter bank"),
@@ -530,7 +537,7 @@ impl GpuHarris {
                 });
                 pass.set_pipeline(&pipes.convolve_columns);
                 pass.set_bind_group(0, &g.derivative_columns, &[]);
-                pass.dispatch_workgroups(gx, gy, count);
+                pass.dispatch_workgroups(g.column_groups.0, g.column_groups.1, count);
                 pass.set_pipeline(&pipes.convolve_rows);
                 pass.set_bind_group(0, &g.derivative_rows, &[]);
                 pass.dispatch_workgroups(gx, gy, count);
@@ -548,10 +555,10 @@ impl GpuHarris {
                 pass.dispatch_workgroups(gx, gy, 1);
                 pass.set_pipeline(&pipes.convolve_columns);
                 pass.set_bind_group(0, &g.blur_columns, &[]);
-                pass.dispatch_workgroups(g.column_groups.0, g.column_groups.1, products);
+                pass.dispatch_workgroups(gx, gy, products);
                 pass.set_pipeline(&pipes.convolve_rows);
                 pass.set_bind_group(0, &g.blur_rows, &[]);
-                pass.dispatch_workgroups(g.grid_groups.0, g.grid_groups.1, products);
+                pass.dispatch_workgroups(gx, gy, products);
             }
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("response"),
@@ -683,8 +690,10 @@ impl GpuHarris {
         self.encode_responses(&mut enc, f, s, true);
         self.ctx.queue.submit([enc.finish()]);
         let all = super::util::read_storage(&self.ctx.device, &self.ctx.queue, &f.derivatives)?;
+        let (gw, gh) = self.plan.scales[s].grid(width as usize, height as usize);
         Ok(all
-            .chunks(width as usize * height as usize)
+            .chunks(gw * gh)
+            .take(self.plan.derivative_count())
             .map(<[f32]>::to_vec)
             .collect())
     }
