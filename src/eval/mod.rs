@@ -1,5 +1,8 @@
-//! Evaluation of keypoints (paper section 2.4): repeatability (eq 11) under a known map.
+//! Evaluation of keypoints (paper section 2.4): repeatability (eq 11) and recall (eq 12) under
+//! known maps, rotation sweeps and homography sequences, and the classic detectors as peers.
 
+pub mod homography;
+pub mod recall;
 pub mod repeatability;
 
 pub use repeatability::{repeatability, Repeatability};

@@ -15,44 +15,71 @@ pub struct Repeatability {
     pub count2: usize,
 }
 
-/// Applies a 3×3 row-major homography.
-pub fn project(h: &[f64; 9], x: f64, y: f64) -> Option<(f64, f64)> {
-    let w = h[6] * x + h[7] * y + h[8];
-    if w.abs() < 1e-12 {
-        return None;
-    }
-    Some((
-        (h[0] * x + h[1] * y + h[2]) / w,
-        (h[3] * x + h[4] * y + h[5]) / w,
-    ))
-}
-
-/// Inverse of a 3×3 matrix (None when singular).
-pub fn invert(h: &[f64; 9]) -> Option<[f64; 9]> {
-    let [a, b, c, d, e, f, g, hh, i] = *h;
-    let det = a * (e * i - f * hh) - b * (d * i - f * g) + c * (d * hh - e * g);
-    if det.abs() < 1e-15 {
-        return None;
-    }
-    let inv = [
-        e * i - f * hh,
-        c * hh - b * i,
-        b * f - c * e,
-        f * g - d * i,
-        a * i - c * g,
-        c * d - a * f,
-        d * hh - e * g,
-        b * g - a * hh,
-        a * e - b * d,
-    ];
-    Some(inv.map(|v| v / det))
-}
+use super::homography::{invert, project, Homography};
 
 fn inside(p: (f64, f64), size: (u32, u32), margin: f64) -> bool {
     p.0 >= margin
         && p.1 >= margin
         && p.0 <= size.0 as f64 - 1.0 - margin
         && p.1 <= size.1 as f64 - 1.0 - margin
+}
+
+/// Points of each view inside the region both views see, and their one-to-one ground-truth
+/// correspondences within ε (greedy by distance, so no point is counted twice).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Correspondences {
+    /// Indices into view 1's points of those whose projection lands inside view 2.
+    pub inside1: Vec<usize>,
+    /// Indices into view 2's points of those whose back-projection lands inside view 1.
+    pub inside2: Vec<usize>,
+    /// Pairs (index into view 1's points, index into view 2's points).
+    pub pairs: Vec<(usize, usize)>,
+}
+
+/// Finds the common region's points and the one-to-one correspondences within `eps`.
+pub fn correspondences(
+    p1: &[(f64, f64)],
+    size1: (u32, u32),
+    p2: &[(f64, f64)],
+    size2: (u32, u32),
+    h: &Homography,
+    eps: f64,
+    margin: f64,
+) -> Correspondences {
+    let hinv = invert(h).expect("ground-truth homography is invertible");
+    let projected: Vec<Option<(f64, f64)>> = p1.iter().map(|&(x, y)| project(h, x, y)).collect();
+    let inside1: Vec<usize> = (0..p1.len())
+        .filter(|&i| projected[i].is_some_and(|q| inside(q, size2, margin)))
+        .collect();
+    let inside2: Vec<usize> = (0..p2.len())
+        .filter(|&j| project(&hinv, p2[j].0, p2[j].1).is_some_and(|q| inside(q, size1, margin)))
+        .collect();
+    let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
+    for &i in &inside1 {
+        let a = projected[i].expect("inside points project");
+        for &j in &inside2 {
+            let b = p2[j];
+            let d2 = (a.0 - b.0).powi(2) + (a.1 - b.1).powi(2);
+            if d2 <= eps * eps {
+                candidates.push((d2, i, j));
+            }
+        }
+    }
+    candidates.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let (mut used1, mut used2) = (vec![false; p1.len()], vec![false; p2.len()]);
+    let mut pairs = Vec::new();
+    for (_, i, j) in candidates {
+        if !used1[i] && !used2[j] {
+            used1[i] = true;
+            used2[j] = true;
+            pairs.push((i, j));
+        }
+    }
+    Correspondences {
+        inside1,
+        inside2,
+        pairs,
+    }
 }
 
 /// Repeatability of `p1` (in an image of `size1`) and `p2` (in `size2`) related by the
@@ -63,50 +90,21 @@ pub fn repeatability(
     size1: (u32, u32),
     p2: &[(f64, f64)],
     size2: (u32, u32),
-    h: &[f64; 9],
+    h: &Homography,
     eps: f64,
     margin: f64,
 ) -> Repeatability {
-    let hinv = invert(h).expect("ground-truth homography is invertible");
-    let a: Vec<(f64, f64)> = p1
-        .iter()
-        .filter_map(|&(x, y)| project(h, x, y))
-        .filter(|&q| inside(q, size2, margin))
-        .collect();
-    let b: Vec<(f64, f64)> = p2
-        .iter()
-        .copied()
-        .filter(|&(x, y)| project(&hinv, x, y).is_some_and(|q| inside(q, size1, margin)))
-        .collect();
-    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
-    for (i, pa) in a.iter().enumerate() {
-        for (j, pb) in b.iter().enumerate() {
-            let d2 = (pa.0 - pb.0).powi(2) + (pa.1 - pb.1).powi(2);
-            if d2 <= eps * eps {
-                pairs.push((d2, i, j));
-            }
-        }
-    }
-    pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
-    let (mut used_a, mut used_b) = (vec![false; a.len()], vec![false; b.len()]);
-    let mut matches = 0;
-    for (_, i, j) in pairs {
-        if !used_a[i] && !used_b[j] {
-            used_a[i] = true;
-            used_b[j] = true;
-            matches += 1;
-        }
-    }
-    let denom = a.len().min(b.len());
+    let c = correspondences(p1, size1, p2, size2, h, eps, margin);
+    let denom = c.inside1.len().min(c.inside2.len());
     Repeatability {
         ratio: if denom == 0 {
             0.0
         } else {
-            matches as f64 / denom as f64
+            c.pairs.len() as f64 / denom as f64
         },
-        matches,
-        count1: a.len(),
-        count2: b.len(),
+        matches: c.pairs.len(),
+        count1: c.inside1.len(),
+        count2: c.inside2.len(),
     }
 }
 

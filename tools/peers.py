@@ -1,0 +1,102 @@
+#!/usr/bin/env python3
+"""Run OpenCV's classic detectors for steernav's evaluation (issue: repeatability and recall).
+
+Usage: peers.py DETECTORS IMAGE...   (DETECTORS comma-separated, or "list")
+Prints one JSON object per line: {"image", "detector", "keypoints": [[x, y, response, size,
+angle], ...], "norm": "l2"|"hamming", "descriptors": [[...], ...]} with keypoints sorted by
+response, strongest first. steernav computes every metric itself; this script only detects.
+Detectors without a descriptor of their own (FAST, AGAST, STAR, GFTT-Harris) are described
+with SIFT at their keypoints so that recall can be measured for them too.
+"""
+import json
+import sys
+
+import cv2
+import numpy as np
+
+
+def make(name):
+    if name == "agast":
+        return cv2.AgastFeatureDetector_create(), None
+    if name == "brisk":
+        return cv2.BRISK_create(), "self"
+    if name == "censure":
+        star = getattr(cv2, "xfeatures2d", None)
+        if star is None or not hasattr(star, "StarDetector_create"):
+            return None, None
+        return star.StarDetector_create(), None
+    if name == "orb":
+        return cv2.ORB_create(nfeatures=5000), "self"
+    if name == "sift":
+        return cv2.SIFT_create(), "self"
+    if name == "surf":
+        xf = getattr(cv2, "xfeatures2d", None)
+        try:
+            return xf.SURF_create(), "self"
+        except Exception:
+            return None, None
+    if name == "fast":
+        return cv2.FastFeatureDetector_create(), None
+    if name == "kaze":
+        return cv2.KAZE_create(), "self"
+    if name == "akaze":
+        return cv2.AKAZE_create(), "self"
+    if name == "harris":
+        return "harris", None
+    raise SystemExit(f"unknown detector {name}")
+
+
+ALL = ["agast", "brisk", "censure", "orb", "sift", "surf", "fast", "kaze", "akaze", "harris"]
+
+
+def detect(name, img):
+    det, desc = make(name)
+    if det is None:
+        return None
+    gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+    if det == "harris":
+        pts = cv2.goodFeaturesToTrack(gray, maxCorners=5000, qualityLevel=1e-4, minDistance=2,
+                                      useHarrisDetector=True, k=0.04)
+        kps = [] if pts is None else [cv2.KeyPoint(float(p[0][0]), float(p[0][1]), 7.0,
+                                                   -1, float(len(pts) - i)) for i, p in enumerate(pts)]
+    else:
+        kps = list(det.detect(gray, None))
+    kps.sort(key=lambda k: -k.response)
+    kps = kps[:5000]
+    extractor = det if desc == "self" else cv2.SIFT_create()
+    kps, d = extractor.compute(gray, kps)
+    kps = list(kps) if kps is not None else []
+    norm = "hamming" if d is not None and d.dtype == np.uint8 and name in ("brisk", "orb", "akaze") else "l2"
+    order = sorted(range(len(kps)), key=lambda i: -kps[i].response)
+    return {
+        "detector": name,
+        "keypoints": [[kps[i].pt[0], kps[i].pt[1], float(kps[i].response), kps[i].size, kps[i].angle]
+                      for i in order],
+        "norm": norm,
+        "descriptors": [] if d is None else [d[i].tolist() for i in order],
+    }
+
+
+def main():
+    if len(sys.argv) >= 2 and sys.argv[1] == "list":
+        ok = [n for n in ALL if make(n)[0] is not None]
+        print(json.dumps({"available": ok, "missing": [n for n in ALL if n not in ok],
+                          "opencv": cv2.__version__}))
+        return
+    if len(sys.argv) < 3:
+        raise SystemExit(__doc__)
+    names = ALL if sys.argv[1] == "all" else sys.argv[1].split(",")
+    for path in sys.argv[2:]:
+        img = cv2.imread(path, cv2.IMREAD_COLOR)
+        if img is None:
+            raise SystemExit(f"{path}: cannot read image")
+        for name in names:
+            out = detect(name, img)
+            if out is None:
+                continue
+            out["image"] = path
+            print(json.dumps(out, separators=(",", ":")))
+
+
+if __name__ == "__main__":
+    main()
