@@ -26,4 +26,5 @@ pub mod batch;
 pub mod draw;
 pub mod eval;
 pub mod output;
+pub mod plot;
 pub mod synth;

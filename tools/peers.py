@@ -6,7 +6,8 @@ Prints one JSON object per line: {"image", "detector", "keypoints": [[x, y, resp
 angle], ...], "norm": "l2"|"hamming", "descriptors": [[...], ...]} with keypoints sorted by
 response, strongest first. steernav computes every metric itself; this script only detects.
 Detectors without a descriptor of their own (FAST, AGAST, STAR, GFTT-Harris) are described
-with SIFT at their keypoints so that recall can be measured for them too.
+with SIFT at their keypoints, oriented by the intensity centroid of a 31-px disc (as ORB
+orients FAST corners), so that recall can be measured for them too, rotation-invariantly.
 """
 import json
 import sys
@@ -49,6 +50,21 @@ def make(name):
 ALL = ["agast", "brisk", "censure", "orb", "sift", "surf", "fast", "kaze", "akaze", "harris"]
 
 
+def centroid_angles(gray, kps, radius=15):
+    """Orientation (degrees) of each keypoint from the intensity centroid of a disc."""
+    h, w = gray.shape
+    g = cv2.copyMakeBorder(gray, radius, radius, radius, radius, cv2.BORDER_REFLECT).astype(np.float32)
+    ys, xs = np.mgrid[-radius:radius + 1, -radius:radius + 1]
+    disc = (xs * xs + ys * ys) <= radius * radius
+    out = []
+    for k in kps:
+        x, y = int(round(k.pt[0])), int(round(k.pt[1]))
+        x, y = min(max(x, 0), w - 1), min(max(y, 0), h - 1)
+        patch = g[y:y + 2 * radius + 1, x:x + 2 * radius + 1] * disc
+        out.append(float(np.degrees(np.arctan2((patch * ys).sum(), (patch * xs).sum())) % 360.0))
+    return out
+
+
 def detect(name, img):
     det, desc = make(name)
     if det is None:
@@ -63,6 +79,10 @@ def detect(name, img):
         kps = list(det.detect(gray, None))
     kps.sort(key=lambda k: -k.response)
     kps = kps[:5000]
+    if desc != "self":
+        for k, a in zip(kps, centroid_angles(gray, kps)):
+            k.angle = a
+            k.size = max(k.size, 7.0)
     extractor = det if desc == "self" else cv2.SIFT_create()
     kps, d = extractor.compute(gray, kps)
     kps = list(kps) if kps is not None else []

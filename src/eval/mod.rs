@@ -2,7 +2,9 @@
 //! known maps, rotation sweeps and homography sequences, and the classic detectors as peers.
 
 pub mod homography;
+pub mod peers;
 pub mod recall;
 pub mod repeatability;
+pub mod sweep;
 
 pub use repeatability::{repeatability, Repeatability};
