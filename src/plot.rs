@@ -104,7 +104,8 @@ pub fn metrics_figure(
         .titled(title, ("sans-serif", 22))
         .map_err(|e| err(e.to_string()))?;
     let panels = root.split_evenly((1, 2));
-    let metrics: [(&str, fn(&Row) -> f64); 2] = [
+    type Metric = (&'static str, fn(&Row) -> f64);
+    let metrics: [Metric; 2] = [
         ("repeatability (eq 11)", |r| r.repeatability),
         ("recall (eq 12)", |r| r.recall),
     ];

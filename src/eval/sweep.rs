@@ -235,8 +235,11 @@ fn write_png(path: &Path, frame: &Frame) -> Result<()> {
         })
 }
 
+/// One view of a sequence beside img1: its index N, its file and the map H1toN.
+pub type SequenceView = (usize, PathBuf, Homography);
+
 /// The images of an Oxford-layout sequence: img1..img6 (.ppm, .pgm or .png) and H1to2p..H1to6p.
-pub fn sequence_files(dir: &Path) -> Result<(PathBuf, Vec<(usize, PathBuf, Homography)>)> {
+pub fn sequence_files(dir: &Path) -> Result<(PathBuf, Vec<SequenceView>)> {
     let find = |k: usize| {
         ["ppm", "pgm", "png", "jpg"]
             .iter()
