@@ -227,3 +227,56 @@ fn help_explains_every_flag() {
     let out = steernav().arg("info").output().unwrap();
     assert!(String::from_utf8_lossy(&out.stdout).contains("cpu threads"));
 }
+
+#[test]
+fn eval_rotation_writes_the_csv_and_the_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = image::open(sample()).unwrap().resize_exact(
+        200,
+        150,
+        image::imageops::FilterType::Triangle,
+    );
+    let img = dir.path().join("small.png");
+    small.save(&img).unwrap();
+    let (csv, png) = (dir.path().join("r.csv"), dir.path().join("r.png"));
+    let out = steernav()
+        .args([
+            "eval",
+            "rotation",
+            "--backend",
+            "cpu",
+            "--detectors",
+            "steernav",
+            "--angles",
+            "0,90",
+            "--images",
+        ])
+        .arg(&img)
+        .arg("--csv")
+        .arg(&csv)
+        .arg("--plot")
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("steernav") && stdout.contains("mean rep."),
+        "{stdout}"
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("detector,image,angle,eps,repeatability,recall,count\n"));
+    assert_eq!(text.lines().count(), 1 + 2 * 3);
+    assert!(image::open(&png).is_ok());
+    let bad = steernav()
+        .args(["eval", "rotation", "--detectors", "nope", "--images"])
+        .arg(&img)
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown detector 'nope'"));
+}
