@@ -27,7 +27,7 @@ fn rotation_sweep_on_a_small_scene_writes_csv_and_figure() {
     assert_eq!(angles, vec![0.0, 90.0, 180.0, 270.0]);
     let opts = EvalOptions::default();
     let rows = rotation_sweep(
-        &[img.clone()],
+        std::slice::from_ref(&img),
         &angles,
         Some(&det),
         None,
