@@ -21,7 +21,7 @@ fn stages(c: &mut Criterion) {
     group.bench_function("cpu/harris (filters + tensor + response + nms)", |b| {
         b.iter(|| cpu.candidates(&frame).unwrap())
     });
-    let (cands, ..) = cpu.candidates(&frame).unwrap();
+    let cands = cpu.candidates(&frame).unwrap().candidates;
     group.bench_function("cpu/merge", |b| b.iter(|| merge(&cands, cpu.plan())));
     let clusters = merge(&cands, cpu.plan());
     group.bench_function("cpu/descriptors", |b| {

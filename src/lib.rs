@@ -23,6 +23,7 @@ pub use error::{Error, Result};
 pub use features::{Backend, Detection, Detector, DetectorConfig, Keypoint};
 pub use image::Frame;
 pub mod batch;
+pub mod bench;
 pub mod draw;
 pub mod eval;
 pub mod output;

@@ -33,8 +33,36 @@ enum Command {
     /// Oxford-layout homography sequences, steernav beside OpenCV's classic detectors.
     #[command(subcommand)]
     Eval(EvalKind),
+    /// Time every stage of detect on the CPU and the GPU at several image sizes.
+    Bench(BenchCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
+}
+
+#[derive(Args)]
+struct BenchCmd {
+    /// Image sizes (generated textured scenes), WxH separated by commas.
+    #[arg(
+        long,
+        default_value = "320x240,640x480,1280x720,1920x1080",
+        value_name = "LIST"
+    )]
+    sizes: String,
+    /// Backends to time: cpu, gpu or both (cpu,gpu).
+    #[arg(long, default_value = "cpu,gpu", value_name = "LIST")]
+    backend: String,
+    /// Untimed runs before measuring, per size and backend.
+    #[arg(long, default_value_t = 2)]
+    warmup: usize,
+    /// Timed runs per size and backend.
+    #[arg(long, default_value_t = 10)]
+    runs: usize,
+    /// Print a JSON array of {stage, backend, size, median_ms, p10_ms, p90_ms} instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// TOML file with detector settings (a [detector] table).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -218,6 +246,7 @@ fn main() -> ExitCode {
         Command::Batch(cmd) => run_batch(cmd),
         Command::Eval(EvalKind::Rotation(cmd)) => eval_rotation(cmd),
         Command::Eval(EvalKind::Homography(cmd)) => eval_homography(cmd),
+        Command::Bench(cmd) => bench(cmd),
         Command::Info => info(),
     };
     match result {
@@ -517,6 +546,61 @@ fn report(
             x_label,
         )?;
         eprintln!("wrote {}", path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
+    let sizes = steernav::bench::parse_sizes(&cmd.sizes).map_err(anyhow::Error::msg)?;
+    let mut backends = Vec::new();
+    for b in cmd.backend.split(',') {
+        backends.push(match b.trim() {
+            "cpu" => Backend::Cpu,
+            "gpu" => Backend::Gpu,
+            other => bail!("--backend: '{other}' is not cpu or gpu"),
+        });
+    }
+    let config = DetectorArgs {
+        backend: Backend::Cpu,
+        config: cmd.config.clone(),
+        orientations: None,
+        scales: None,
+        max_keypoints: None,
+        basis: None,
+        merge: None,
+        threshold: None,
+    }
+    .config()?;
+    let adapter = if backends.contains(&Backend::Gpu) {
+        match steernav::gpu::GpuContext::shared() {
+            Ok(ctx) => Some(format!(
+                "{} ({:?}, {:?})",
+                ctx.info.name, ctx.info.backend, ctx.info.device_type
+            )),
+            Err(e) if !steernav::gpu::gpu_required() => {
+                eprintln!("warning: {e}; timing the CPU only");
+                backends.retain(|b| *b != Backend::Gpu);
+                None
+            }
+            Err(e) => return Err(e.into()),
+        }
+    } else {
+        None
+    };
+    let bar = indicatif::ProgressBar::new((sizes.len() * backends.len() * cmd.runs.max(1)) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  ETA {eta}")
+            .expect("valid template"),
+    );
+    let rows = steernav::bench::run(&config, &sizes, &backends, cmd.warmup, cmd.runs, &bar)?;
+    bar.finish_and_clear();
+    if cmd.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        print!("{}", steernav::bench::table(&rows, adapter.as_deref()));
+        if adapter.as_deref().is_some_and(|a| a.contains("llvmpipe")) {
+            println!("\nnote: llvmpipe (lavapipe) runs shaders on the CPU: its GPU times prove correctness, not GPU speed.");
+        }
     }
     Ok(ExitCode::SUCCESS)
 }

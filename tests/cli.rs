@@ -280,3 +280,62 @@ fn eval_rotation_writes_the_csv_and_the_figure() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown detector 'nope'"));
 }
+
+#[test]
+fn bench_prints_json_rows_with_the_documented_keys() {
+    let out = steernav()
+        .args([
+            "bench",
+            "--sizes",
+            "96x64",
+            "--backend",
+            "cpu",
+            "--runs",
+            "3",
+            "--warmup",
+            "1",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v.as_array().unwrap();
+    let stages: Vec<&str> = rows.iter().map(|r| r["stage"].as_str().unwrap()).collect();
+    for s in [
+        "filters + tensor + responses",
+        "nms + compaction",
+        "clustering",
+        "descriptors",
+        "end to end",
+    ] {
+        assert!(stages.contains(&s), "missing {s}: {stages:?}");
+    }
+    for r in rows {
+        let mut keys: Vec<&str> = r.as_object().unwrap().keys().map(String::as_str).collect();
+        keys.sort_unstable();
+        assert_eq!(
+            keys,
+            ["backend", "median_ms", "p10_ms", "p90_ms", "size", "stage"]
+        );
+        assert_eq!(
+            (r["backend"].as_str(), r["size"].as_str()),
+            (Some("cpu"), Some("96x64"))
+        );
+        let (p10, med, p90) = (
+            r["p10_ms"].as_f64().unwrap(),
+            r["median_ms"].as_f64().unwrap(),
+            r["p90_ms"].as_f64().unwrap(),
+        );
+        assert!(p10 <= med && med <= p90);
+    }
+    let bad = steernav()
+        .args(["bench", "--sizes", "0x10", "--backend", "cpu"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+}

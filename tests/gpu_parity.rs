@@ -100,14 +100,20 @@ fn candidate_lists_match_cpu() {
     }
     let frame = textured_scene(W, H, 10);
     let cfg = DetectorConfig::default();
-    let (g, gt, ..) = Detector::new(&cfg, Backend::Gpu)
+    let g_run = Detector::new(&cfg, Backend::Gpu)
         .unwrap()
         .candidates(&frame)
         .unwrap();
-    let (c, ct, ..) = Detector::new(&cfg, Backend::Cpu)
+    let c_run = Detector::new(&cfg, Backend::Cpu)
         .unwrap()
         .candidates(&frame)
         .unwrap();
+    let (g, gt, c, ct) = (
+        g_run.candidates,
+        g_run.threshold,
+        c_run.candidates,
+        c_run.threshold,
+    );
     assert_eq!(gt, ct);
     assert!(c.len() > 100, "{} candidates", c.len());
     // The same maxima (scale, orientation, position within 0.01 px, response within 1e-3
@@ -186,8 +192,13 @@ fn candidate_overflow_raises_the_threshold_identically() {
     };
     let g = Detector::new(&cfg, Backend::Gpu).unwrap();
     let c = Detector::new(&cfg, Backend::Cpu).unwrap();
-    let (gc, gt, _, _) = g.candidates(&frame).unwrap();
-    let (cc, ct, _, _) = c.candidates(&frame).unwrap();
+    let (g_run, c_run) = (g.candidates(&frame).unwrap(), c.candidates(&frame).unwrap());
+    let (gc, gt, cc, ct) = (
+        g_run.candidates,
+        g_run.threshold,
+        c_run.candidates,
+        c_run.threshold,
+    );
     assert!(gt > 0.0 && gt == ct, "thresholds {gt} vs {ct}");
     assert!(gc.len() <= 64 && cc.len() <= 64 && !cc.is_empty());
     assert!(

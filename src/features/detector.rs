@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use super::cluster::merge;
 use super::config::DetectorConfig;
 use super::descriptor::describe;
-use super::harris::CpuHarris;
+use super::harris::{CpuHarris, CpuTimings};
 use super::steerable::HarrisPlan;
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
@@ -40,6 +40,23 @@ pub struct StageTimings {
     pub descriptor_ms: f64,
     /// Per-stage GPU time from timestamp queries, when the GPU ran with them.
     pub gpu: Option<GpuTimings>,
+    /// The CPU Harris stage's parts, when the CPU ran.
+    pub cpu: Option<CpuTimings>,
+}
+
+/// The Harris stage's output for one frame.
+#[derive(Clone, Debug)]
+pub struct HarrisRun {
+    /// Candidates, strongest first.
+    pub candidates: Vec<Candidate>,
+    /// The threshold finally applied.
+    pub threshold: f32,
+    /// "gpu" or "cpu".
+    pub backend: &'static str,
+    /// GPU stage times (timestamp queries), when the GPU ran with them.
+    pub gpu: Option<GpuTimings>,
+    /// CPU stage times, when the CPU ran.
+    pub cpu: Option<CpuTimings>,
 }
 
 /// The result of detecting on one frame.
@@ -138,31 +155,48 @@ impl Detector {
     }
 
     /// Harris candidates of a frame, sorted strongest first, with the threshold used, the
-    /// backend that ran and the GPU timings.
-    pub fn candidates(
-        &self,
-        frame: &Frame,
-    ) -> Result<(Vec<Candidate>, f32, &'static str, Option<GpuTimings>)> {
+    /// backend that ran and its stage timings.
+    pub fn candidates(&self, frame: &Frame) -> Result<HarrisRun> {
         crate::image::check_size("image", frame.width, frame.height)?;
         if let Some(g) = &self.gpu {
             match g.candidates(&frame.gray, frame.width, frame.height) {
-                Ok((c, t, timings)) => return Ok((c, t, "gpu", timings)),
+                Ok((candidates, threshold, gpu)) => {
+                    return Ok(HarrisRun {
+                        candidates,
+                        threshold,
+                        backend: "gpu",
+                        gpu,
+                        cpu: None,
+                    })
+                }
                 Err(Error::GpuLimit(msg)) if self.fallback && !gpu_required() => {
                     eprintln!("warning: {msg}; this image goes to the CPU backend");
                 }
                 Err(e) => return Err(e),
             }
         }
-        let (c, t) = self
-            .cpu
-            .candidates(&frame.gray, frame.width as usize, frame.height as usize);
-        Ok((c, t, "cpu", None))
+        let (candidates, threshold, cpu) =
+            self.cpu
+                .candidates(&frame.gray, frame.width as usize, frame.height as usize);
+        Ok(HarrisRun {
+            candidates,
+            threshold,
+            backend: "cpu",
+            gpu: None,
+            cpu: Some(cpu),
+        })
     }
 
     /// Keypoints with descriptors of one frame.
     pub fn detect(&self, frame: &Frame) -> Result<Detection> {
         let t0 = Instant::now();
-        let (candidates, threshold, backend, gpu) = self.candidates(frame)?;
+        let HarrisRun {
+            candidates,
+            threshold,
+            backend,
+            gpu,
+            cpu,
+        } = self.candidates(frame)?;
         let t1 = Instant::now();
         let clusters = merge(&candidates, &self.plan);
         let t2 = Instant::now();
@@ -194,6 +228,7 @@ impl Detector {
                 merge_ms: ms(t1, t2),
                 descriptor_ms: ms(t2, t3),
                 gpu,
+                cpu,
             },
         })
     }

@@ -25,6 +25,15 @@ pub struct CpuHarris {
     workspace: Mutex<Workspace>,
 }
 
+/// Wall-clock time of the CPU Harris stage's two parts.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CpuTimings {
+    /// Derivative filters, structure tensor and responses (fused in the row-band pipeline).
+    pub responses_ms: f64,
+    /// Non-maximum suppression, sub-pixel fit and sorting.
+    pub nms_ms: f64,
+}
+
 /// Output of the Harris stage for inspection: responses of every scale and orientation.
 pub struct ResponseStack {
     /// `responses[s]` holds N planes on scale s's grid (layout `[θ][j][i]`, sample (i, j) at
@@ -89,17 +98,30 @@ impl CpuHarris {
         }
     }
 
-    /// Candidates surviving non-maximum suppression, sorted strongest first, and the threshold
-    /// finally used (raised ×4 until at most `candidate_capacity` survive, as on the GPU).
-    pub fn candidates(&self, gray: &[f32], width: usize, height: usize) -> (Vec<Candidate>, f32) {
+    /// Candidates surviving non-maximum suppression, sorted strongest first, the threshold
+    /// finally used (raised ×4 until at most `candidate_capacity` survive, as on the GPU) and
+    /// the stage's timings.
+    pub fn candidates(
+        &self,
+        gray: &[f32],
+        width: usize,
+        height: usize,
+    ) -> (Vec<Candidate>, f32, CpuTimings) {
         let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
+        let t0 = std::time::Instant::now();
         self.compute(&mut ws, gray, width, height);
+        let t1 = std::time::Instant::now();
         let mut threshold = self.plan.config.threshold;
         loop {
             let mut found = suppress(&self.plan, &ws.responses, width, height, threshold);
             if found.len() <= self.plan.config.candidate_capacity {
                 super::sort_candidates(&mut found);
-                return (found, threshold);
+                let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+                let timings = CpuTimings {
+                    responses_ms: ms(t1 - t0),
+                    nms_ms: ms(t1.elapsed()),
+                };
+                return (found, threshold, timings);
             }
             threshold = super::raised_threshold(threshold);
         }

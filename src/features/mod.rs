@@ -14,7 +14,7 @@ pub mod steerable;
 use serde::{Deserialize, Serialize};
 
 pub use config::{BasisOrder, DetectorConfig, MergeMode};
-pub use detector::{Backend, Detection, Detector};
+pub use detector::{Backend, Detection, Detector, HarrisRun};
 
 /// One detection of the Harris stage: a local maximum of R at one scale and one orientation.
 /// The layout is shared with `shaders/nms.wgsl` (16 bytes).
