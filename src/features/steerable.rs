@@ -138,7 +138,7 @@ pub struct ScalePlan {
     /// `step` pixels and the products, their window blur, the responses and the suppression
     /// all live on that grid: the window integral of eq 7 becomes a sum over the grid's
     /// samples, accurate because the window is wide against the step (step = largest power
-    /// of two ≤ σ_I / 1.05: the window passes at most exp(−π²·1.05²/2) ≈ 0.4% at the grid's
+    /// of two ≤ σ_I / 1.4: the window passes at most exp(−π²·1.4²/2) ≈ 6e-5 at the grid's
     /// Nyquist frequency).
     pub step: u32,
 }
@@ -159,7 +159,7 @@ impl ScalePlan {
 /// The grid step of a scale with integration scale `sigma_i`.
 pub fn grid_step(sigma_i: f32) -> u32 {
     let mut step = 1u32;
-    while sigma_i / (2 * step) as f32 >= 1.05 && step < 64 {
+    while sigma_i / (2 * step) as f32 >= 1.4 && step < 64 {
         step *= 2;
     }
     step
