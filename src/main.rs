@@ -60,9 +60,8 @@ struct BenchCmd {
     /// Print a JSON array of {stage, backend, size, median_ms, p10_ms, p90_ms} instead of the table.
     #[arg(long)]
     json: bool,
-    /// TOML file with detector settings (a [detector] table).
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
+    #[command(flatten)]
+    settings: SettingsArgs,
 }
 
 #[derive(Subcommand)]
@@ -130,12 +129,29 @@ struct HomographyCmd {
     eval: EvalArgs,
 }
 
-/// Detector settings shared by every command that detects.
+/// The backend and the detector settings of every command that detects.
 #[derive(Args, Clone)]
 struct DetectorArgs {
     /// Where the image work runs: auto (GPU if an adapter exists, else CPU with a warning), gpu, cpu.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     backend: Backend,
+    #[command(flatten)]
+    settings: SettingsArgs,
+}
+
+impl DetectorArgs {
+    fn config(&self) -> anyhow::Result<DetectorConfig> {
+        self.settings.config()
+    }
+
+    fn detector(&self) -> anyhow::Result<Detector> {
+        Ok(Detector::new(&self.config()?, self.backend)?)
+    }
+}
+
+/// Detector settings: a TOML file and the flags that override it.
+#[derive(Args, Clone)]
+struct SettingsArgs {
     /// TOML file with detector settings (a [detector] table; see README); flags override it.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
@@ -159,7 +175,7 @@ struct DetectorArgs {
     threshold: Option<f32>,
 }
 
-impl DetectorArgs {
+impl SettingsArgs {
     fn config(&self) -> anyhow::Result<DetectorConfig> {
         let mut cfg = match &self.config {
             Some(path) => {
@@ -191,10 +207,6 @@ impl DetectorArgs {
         }
         cfg.validate()?;
         Ok(cfg)
-    }
-
-    fn detector(&self) -> anyhow::Result<Detector> {
-        Ok(Detector::new(&self.config()?, self.backend)?)
     }
 }
 
@@ -560,17 +572,7 @@ fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
             other => bail!("--backend: '{other}' is not cpu or gpu"),
         });
     }
-    let config = DetectorArgs {
-        backend: Backend::Cpu,
-        config: cmd.config.clone(),
-        orientations: None,
-        scales: None,
-        max_keypoints: None,
-        basis: None,
-        merge: None,
-        threshold: None,
-    }
-    .config()?;
+    let config = cmd.settings.config()?;
     let adapter = if backends.contains(&Backend::Gpu) {
         match steernav::gpu::GpuContext::shared() {
             Ok(ctx) => Some(format!(
