@@ -195,6 +195,25 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         }
     }
     let reach = 1.5 * r;
+    // Only the strongest clusters are kept (stage 2 stops at max_keypoints, and a cluster is
+    // led by its seed), so seeds far down the list and the candidates out of reach of the
+    // strongest seeds cannot reach the output: drop them before the Lloyd iterations.
+    let limit = 4 * plan.config.max_keypoints;
+    let kept: Vec<usize> = if seeds.len() > limit {
+        seeds.truncate(limit);
+        let seed_grid = Grid::new(&seeds, 2.0 * reach);
+        (0..points.len())
+            .filter(|&i| {
+                seed_grid
+                    .near(points[i])
+                    .any(|s| dist2(seeds[s], points[i]) <= 4.0 * reach * reach)
+            })
+            .collect()
+    } else {
+        (0..points.len()).collect()
+    };
+    let candidates: Vec<Candidate> = kept.iter().map(|&i| candidates[i]).collect();
+    let points: Vec<(f32, f32)> = kept.iter().map(|&i| points[i]).collect();
     let mut centres = seeds;
     let mut assignment: Vec<Option<usize>> = Vec::new();
     for iteration in 0..3 {

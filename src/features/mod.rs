@@ -49,7 +49,7 @@ impl Candidate {
 /// Orders candidates strongest first, ties broken by position, scale and orientation, so the
 /// merge sees the same sequence whatever order the GPU's atomic compaction produced.
 pub fn sort_candidates(c: &mut [Candidate]) {
-    c.sort_by(|a, b| {
+    c.sort_unstable_by(|a, b| {
         b.response
             .total_cmp(&a.response)
             .then(a.y.total_cmp(&b.y))
