@@ -2,6 +2,8 @@
 //! Harris candidates (GPU or CPU) → two-stage merge (CPU) → descriptors (CPU).
 
 use std::sync::Once;
+
+use rayon::prelude::*;
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
@@ -201,18 +203,18 @@ impl Detector {
         let clusters = merge(&candidates, &self.plan);
         let t2 = Instant::now();
         let mut scale_histogram = vec![0; self.plan.scales.len()];
+        for c in &clusters {
+            scale_histogram[c.scale_index] += 1;
+        }
         let keypoints = clusters
-            .iter()
-            .map(|c| {
-                scale_histogram[c.scale_index] += 1;
-                Keypoint {
-                    x: c.x,
-                    y: c.y,
-                    scale: self.plan.scales[c.scale_index].sigma_d,
-                    angle: self.plan.orientations[c.orientation_index],
-                    response: c.response,
-                    descriptor: describe(frame, c.x, c.y),
-                }
+            .par_iter()
+            .map(|c| Keypoint {
+                x: c.x,
+                y: c.y,
+                scale: self.plan.scales[c.scale_index].sigma_d,
+                angle: self.plan.orientations[c.orientation_index],
+                response: c.response,
+                descriptor: describe(frame, c.x, c.y),
             })
             .collect();
         let t3 = Instant::now();
