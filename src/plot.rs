@@ -7,7 +7,7 @@ use std::sync::Once;
 use plotters::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::eval::sweep::Row;
+use crate::eval::sweep::{curve, detectors, Row};
 
 static FONT: Once = Once::new();
 
@@ -36,33 +36,10 @@ const COLOURS: [RGBColor; 12] = [
 
 /// Per detector, the mean over images of `metric` at each x, at tolerance `eps`.
 fn curves(rows: &[Row], eps: f64, metric: fn(&Row) -> f64) -> Vec<(String, Vec<(f64, f64)>)> {
-    let mut names: Vec<String> = Vec::new();
-    for r in rows {
-        if !names.contains(&r.detector) {
-            names.push(r.detector.clone());
-        }
-    }
-    names
+    detectors(rows)
         .into_iter()
         .map(|name| {
-            let mine: Vec<&Row> = rows
-                .iter()
-                .filter(|r| r.detector == name && (r.eps - eps).abs() < 1e-9)
-                .collect();
-            let mut xs: Vec<f64> = mine.iter().map(|r| r.angle).collect();
-            xs.sort_by(f64::total_cmp);
-            xs.dedup();
-            let pts = xs
-                .into_iter()
-                .map(|x| {
-                    let v: Vec<f64> = mine
-                        .iter()
-                        .filter(|r| r.angle == x)
-                        .map(|r| metric(r))
-                        .collect();
-                    (x, v.iter().sum::<f64>() / v.len() as f64)
-                })
-                .collect();
+            let pts = curve(rows, &name, eps, metric, true);
             (name, pts)
         })
         .collect()

@@ -368,8 +368,8 @@ pub struct Summary {
     pub mean_count: f64,
 }
 
-/// Summaries at `eps`, leaving out angle 0 (the identical view), in first-seen detector order.
-pub fn summarize(rows: &[Row], eps: f64) -> Vec<Summary> {
+/// Detector names in first-seen order.
+pub fn detectors(rows: &[Row]) -> Vec<String> {
     let mut names: Vec<String> = Vec::new();
     for r in rows {
         if !names.contains(&r.detector) {
@@ -377,6 +377,43 @@ pub fn summarize(rows: &[Row], eps: f64) -> Vec<Summary> {
         }
     }
     names
+}
+
+/// For one detector at tolerance `eps`: `metric` averaged over images at each angle (or
+/// sequence image), in increasing angle order; angle 0 is left out unless `with_zero`.
+pub fn curve(
+    rows: &[Row],
+    detector: &str,
+    eps: f64,
+    metric: fn(&Row) -> f64,
+    with_zero: bool,
+) -> Vec<(f64, f64)> {
+    let mine: Vec<&Row> = rows
+        .iter()
+        .filter(|r| {
+            r.detector == detector
+                && (r.eps - eps).abs() < 1e-9
+                && (with_zero || r.angle.rem_euclid(360.0) != 0.0)
+        })
+        .collect();
+    let mut xs: Vec<f64> = mine.iter().map(|r| r.angle).collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    xs.into_iter()
+        .map(|x| {
+            let v: Vec<f64> = mine
+                .iter()
+                .filter(|r| r.angle == x)
+                .map(|r| metric(r))
+                .collect();
+            (x, v.iter().sum::<f64>() / v.len() as f64)
+        })
+        .collect()
+}
+
+/// Summaries at `eps`, leaving out angle 0 (the identical view), in first-seen detector order.
+pub fn summarize(rows: &[Row], eps: f64) -> Vec<Summary> {
+    detectors(rows)
         .into_iter()
         .map(|name| {
             let mine: Vec<&Row> = rows
@@ -388,21 +425,15 @@ pub fn summarize(rows: &[Row], eps: f64) -> Vec<Summary> {
                 })
                 .collect();
             let n = mine.len().max(1) as f64;
-            let mut angles: Vec<f64> = mine.iter().map(|r| r.angle).collect();
-            angles.sort_by(f64::total_cmp);
-            angles.dedup();
-            let (mut worst, mut worst_angle) = (f64::INFINITY, f64::NAN);
-            for a in angles {
-                let at: Vec<f64> = mine
-                    .iter()
-                    .filter(|r| r.angle == a)
-                    .map(|r| r.repeatability)
-                    .collect();
-                let m = at.iter().sum::<f64>() / at.len() as f64;
-                if m < worst {
-                    (worst, worst_angle) = (m, a);
-                }
-            }
+            let (worst_angle, worst) = curve(rows, &name, eps, |r| r.repeatability, false)
+                .into_iter()
+                .fold((f64::NAN, f64::INFINITY), |best, (a, m)| {
+                    if m < best.1 {
+                        (a, m)
+                    } else {
+                        best
+                    }
+                });
             Summary {
                 detector: name,
                 mean_repeatability: mine.iter().map(|r| r.repeatability).sum::<f64>() / n,
