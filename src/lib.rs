@@ -26,6 +26,7 @@ pub mod batch;
 pub mod bench;
 pub mod draw;
 pub mod eval;
+pub mod nav;
 pub mod output;
 pub mod plot;
 pub mod synth;

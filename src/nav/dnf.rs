@@ -1,0 +1,348 @@
+//! The dynamic neural field of eqs 28–31: a ring of N heading neurons,
+//! τ u̇(φ) = −u(φ) + S(φ) + h + Σ_φ' w(φ, φ') f(u(φ')) (eq 30), integrated by Euler steps, with the
+//! interaction kernel of eq 31 (+1 within 3 neighbours on the ring, −2.2 otherwise) or a
+//! difference of Gaussians, f a Heaviside step or a sigmoid, and the chosen heading
+//! φ_F = argmax u (eq 29). Headings wrap: neuron i stands for the angle 2πi/N.
+//!
+//! [`FieldBatch`] advances B independent fields at once (robots, episodes, parameter sets). The
+//! piecewise-constant kernel of eq 31 needs only the total activity and a sliding window sum
+//! over the ring, so a step costs O(N) per field instead of the O(N²) of a matrix product.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// The lateral interaction w(φ, φ') as a function of ring distance.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case")]
+pub enum Interaction {
+    /// Eq 31: `excite` within `width` neighbours (ring distance ≤ width), `inhibit` beyond.
+    Amari {
+        /// Weight within the window (paper: 1).
+        excite: f32,
+        /// Weight outside it (paper: −2.2).
+        inhibit: f32,
+        /// Half-width in neurons (paper: 3).
+        width: usize,
+    },
+    /// a_e·exp(−d²/2σ_e²) − a_i·exp(−d²/2σ_i²) − global, d the ring distance in neurons.
+    GaussianDifference {
+        /// Excitation amplitude.
+        a_e: f32,
+        /// Excitation width (neurons).
+        sigma_e: f32,
+        /// Inhibition amplitude.
+        a_i: f32,
+        /// Inhibition width (neurons).
+        sigma_i: f32,
+        /// Global inhibition.
+        global: f32,
+    },
+}
+
+/// The output non-linearity f.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case")]
+pub enum Activation {
+    /// f(u) = 1 if u > 0 else 0.
+    Heaviside,
+    /// f(u) = 1 / (1 + exp(−β u)).
+    Sigmoid {
+        /// Steepness β.
+        beta: f32,
+    },
+}
+
+impl Activation {
+    /// f(u).
+    #[inline]
+    pub fn apply(self, u: f32) -> f32 {
+        match self {
+            Activation::Heaviside => (u > 0.0) as u32 as f32,
+            Activation::Sigmoid { beta } => 1.0 / (1.0 + (-beta * u).exp()),
+        }
+    }
+}
+
+/// Parameters of the field (eq 30), with documented defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FieldConfig {
+    /// Number of heading neurons N. Default 72 (5° each).
+    pub neurons: usize,
+    /// Time constant τ (s). Default 0.1.
+    pub tau: f32,
+    /// Euler step (s). Default 0.01.
+    pub dt: f32,
+    /// Resting level h. Default −2.
+    pub h: f32,
+    /// Lateral interaction. Default eq 31 (+1 within 3 neighbours, −2.2 beyond).
+    pub interaction: Interaction,
+    /// Output non-linearity. Default Heaviside.
+    pub activation: Activation,
+}
+
+impl Default for FieldConfig {
+    fn default() -> Self {
+        Self {
+            neurons: 72,
+            tau: 0.1,
+            dt: 0.01,
+            h: -2.0,
+            interaction: Interaction::Amari {
+                excite: 1.0,
+                inhibit: -2.2,
+                width: 3,
+            },
+            activation: Activation::Heaviside,
+        }
+    }
+}
+
+impl FieldConfig {
+    /// Checks every value; the error names the field.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |field: &'static str, value: String, reason: &str| {
+            Err(Error::Config {
+                field,
+                value,
+                reason: reason.into(),
+            })
+        };
+        if !(3..=4096).contains(&self.neurons) {
+            return bad("neurons", self.neurons.to_string(), "must be in 3..=4096");
+        }
+        if !(self.tau.is_finite() && self.tau > 0.0) {
+            return bad("tau", self.tau.to_string(), "must be a finite number > 0");
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0 && self.dt <= self.tau) {
+            return bad(
+                "dt",
+                self.dt.to_string(),
+                "must be finite, > 0 and ≤ tau (Euler stability)",
+            );
+        }
+        if !self.h.is_finite() {
+            return bad("h", self.h.to_string(), "must be finite");
+        }
+        let finite = match self.interaction {
+            Interaction::Amari {
+                excite,
+                inhibit,
+                width,
+            } => {
+                if 2 * width + 1 > self.neurons {
+                    return bad(
+                        "interaction.width",
+                        width.to_string(),
+                        "the window must fit on the ring",
+                    );
+                }
+                excite.is_finite() && inhibit.is_finite()
+            }
+            Interaction::GaussianDifference {
+                a_e,
+                sigma_e,
+                a_i,
+                sigma_i,
+                global,
+            } => {
+                [a_e, a_i, global].iter().all(|v| v.is_finite())
+                    && sigma_e > 0.0
+                    && sigma_i > 0.0
+                    && sigma_e.is_finite()
+                    && sigma_i.is_finite()
+            }
+        };
+        if !finite {
+            return bad(
+                "interaction",
+                format!("{:?}", self.interaction),
+                "weights must be finite, widths > 0",
+            );
+        }
+        if let Activation::Sigmoid { beta } = self.activation {
+            if !(beta.is_finite() && beta > 0.0) {
+                return bad(
+                    "activation.beta",
+                    beta.to_string(),
+                    "must be a finite number > 0",
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// The kernel as a function of ring distance 0..=N/2 (dense form, used by the GPU and by
+    /// the difference-of-Gaussians path).
+    pub fn kernel_by_distance(&self) -> Vec<f32> {
+        (0..=self.neurons / 2)
+            .map(|d| match self.interaction {
+                Interaction::Amari {
+                    excite,
+                    inhibit,
+                    width,
+                } => {
+                    if d <= width {
+                        excite
+                    } else {
+                        inhibit
+                    }
+                }
+                Interaction::GaussianDifference {
+                    a_e,
+                    sigma_e,
+                    a_i,
+                    sigma_i,
+                    global,
+                } => {
+                    let d2 = (d * d) as f32;
+                    a_e * (-d2 / (2.0 * sigma_e * sigma_e)).exp()
+                        - a_i * (-d2 / (2.0 * sigma_i * sigma_i)).exp()
+                        - global
+                }
+            })
+            .collect()
+    }
+}
+
+/// Heading (radians, [0, 2π)) of neuron `i` on a ring of `n`.
+pub fn heading(i: usize, n: usize) -> f32 {
+    i as f32 * std::f32::consts::TAU / n as f32
+}
+
+/// B independent fields of N neurons, stored field after field.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldBatch {
+    /// The configuration (shared by all fields).
+    pub config: FieldConfig,
+    /// Activations, `fields × neurons`.
+    pub u: Vec<f32>,
+    /// Number of fields B.
+    pub fields: usize,
+}
+
+impl FieldBatch {
+    /// B fields at rest (u = h).
+    pub fn new(config: FieldConfig, fields: usize) -> Result<Self> {
+        config.validate()?;
+        if fields == 0 {
+            return Err(Error::Config {
+                field: "fields",
+                value: "0".into(),
+                reason: "at least one field".into(),
+            });
+        }
+        let u = vec![config.h; fields * config.neurons];
+        Ok(Self { config, u, fields })
+    }
+
+    /// Advances every field by `steps` Euler steps under `stimulus` (`fields × neurons`, held
+    /// constant over the steps). Non-finite stimulus values are refused.
+    pub fn step(&mut self, stimulus: &[f32], steps: usize) -> Result<()> {
+        let n = self.config.neurons;
+        if stimulus.len() != self.u.len() {
+            return Err(Error::Config {
+                field: "stimulus",
+                value: format!("{} values", stimulus.len()),
+                reason: format!("expected fields × neurons = {}", self.u.len()),
+            });
+        }
+        if let Some(i) = stimulus.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Config {
+                field: "stimulus",
+                value: stimulus[i].to_string(),
+                reason: format!(
+                    "value {i} (field {}, neuron {}) is not finite",
+                    i / n,
+                    i % n
+                ),
+            });
+        }
+        let cfg = &self.config;
+        let kernel = cfg.kernel_by_distance();
+        self.u
+            .par_chunks_mut(n)
+            .zip(stimulus.par_chunks(n))
+            .for_each_init(
+                || (vec![0.0f32; n], vec![0.0f32; n]),
+                |(f, lateral), (u, s)| {
+                    for _ in 0..steps {
+                        step_field(cfg, &kernel, u, s, f, lateral);
+                    }
+                },
+            );
+        Ok(())
+    }
+
+    /// φ_F of field `b` (eq 29): the heading of the most active neuron (lowest index on ties).
+    pub fn peak(&self, b: usize) -> (usize, f32) {
+        let n = self.config.neurons;
+        let u = &self.u[b * n..(b + 1) * n];
+        let i = (0..n).fold(0, |best, i| if u[i] > u[best] { i } else { best });
+        (i, heading(i, n))
+    }
+
+    /// Field `b`'s activations.
+    pub fn field(&self, b: usize) -> &[f32] {
+        let n = self.config.neurons;
+        &self.u[b * n..(b + 1) * n]
+    }
+}
+
+/// One Euler step of one field (eq 30).
+fn step_field(
+    cfg: &FieldConfig,
+    kernel: &[f32],
+    u: &mut [f32],
+    s: &[f32],
+    f: &mut [f32],
+    lateral: &mut [f32],
+) {
+    let n = u.len();
+    for (fi, &ui) in f.iter_mut().zip(u.iter()) {
+        *fi = cfg.activation.apply(ui);
+    }
+    match cfg.interaction {
+        Interaction::Amari {
+            excite,
+            inhibit,
+            width,
+        } => {
+            // Σ w f = inhibit·Σ f + (excite − inhibit)·(window sum), the window slid around the ring.
+            let total: f32 = f.iter().sum();
+            let mut window: f32 = (0..=2 * width).map(|k| f[(k + n - width) % n]).sum();
+            for (i, l) in lateral.iter_mut().enumerate() {
+                *l = inhibit * total + (excite - inhibit) * window;
+                window += f[(i + width + 1) % n] - f[(i + n - width) % n];
+            }
+        }
+        Interaction::GaussianDifference { .. } => {
+            for (i, l) in lateral.iter_mut().enumerate() {
+                *l = (0..n).map(|j| kernel[ring_distance(i, j, n)] * f[j]).sum();
+            }
+        }
+    }
+    let rate = cfg.dt / cfg.tau;
+    for ((ui, &si), &li) in u.iter_mut().zip(s).zip(lateral.iter()) {
+        *ui += rate * (-*ui + si + cfg.h + li);
+    }
+}
+
+/// Distance between neurons i and j on a ring of n.
+pub fn ring_distance(i: usize, j: usize, n: usize) -> usize {
+    let d = i.abs_diff(j);
+    d.min(n - d)
+}
+
+/// A bell-shaped stimulus on the ring: `amplitude`·exp(−d²/2σ²) around neuron `centre`.
+pub fn bell(n: usize, centre: f32, amplitude: f32, sigma: f32) -> Vec<f32> {
+    (0..n)
+        .map(|i| {
+            let d = (i as f32 - centre).rem_euclid(n as f32);
+            let d = d.min(n as f32 - d);
+            amplitude * (-d * d / (2.0 * sigma * sigma)).exp()
+        })
+        .collect()
+}

@@ -1,0 +1,151 @@
+//! The dynamic neural field (eqs 28–31): a single stable peak at a bell-shaped stimulus that
+//! follows it when it moves, no peak below threshold, one winner between two stimuli.
+
+use steernav::nav::dnf::{bell, ring_distance, Activation, FieldBatch, FieldConfig, Interaction};
+
+const N: usize = 72;
+
+/// The neurons above zero, as one contiguous arc (None if they are not contiguous).
+fn active_arc(u: &[f32]) -> Option<Vec<usize>> {
+    let active: Vec<usize> = (0..u.len()).filter(|&i| u[i] > 0.0).collect();
+    let contiguous = active
+        .iter()
+        .all(|&i| active.iter().any(|&j| ring_distance(i, j, u.len()) == 1) || active.len() == 1);
+    contiguous.then_some(active)
+}
+
+fn settle(field: &mut FieldBatch, stimulus: &[f32], steps: usize) {
+    field.step(stimulus, steps).unwrap();
+}
+
+#[test]
+fn a_single_stable_peak_forms_at_the_stimulus_and_follows_it() {
+    let mut field = FieldBatch::new(FieldConfig::default(), 1).unwrap();
+    let s = bell(N, 20.0, 5.0, 3.0);
+    settle(&mut field, &s, 1000);
+    let arc = active_arc(field.field(0)).expect("one contiguous peak");
+    assert!(
+        !arc.is_empty() && arc.len() <= 9,
+        "peak width {}",
+        arc.len()
+    );
+    assert_eq!(field.peak(0).0, 20);
+    // Stable: more steps change nothing.
+    let before = field.u.clone();
+    settle(&mut field, &s, 500);
+    let drift = before
+        .iter()
+        .zip(&field.u)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f32::max);
+    assert!(drift < 1e-3, "drift {drift}");
+    // The stimulus moves one neuron every 0.2 s to neuron 32, and across the wrap-around.
+    for c in 21..=32 {
+        settle(&mut field, &bell(N, c as f32, 5.0, 3.0), 20);
+    }
+    settle(&mut field, &bell(N, 32.0, 5.0, 3.0), 300);
+    assert_eq!(field.peak(0).0, 32);
+    assert!(active_arc(field.field(0)).is_some());
+    let mut wrap = FieldBatch::new(FieldConfig::default(), 1).unwrap();
+    settle(&mut wrap, &bell(N, 70.0, 5.0, 3.0), 1000);
+    for c in 71..=75 {
+        settle(&mut wrap, &bell(N, c as f32, 5.0, 3.0), 20);
+    }
+    settle(&mut wrap, &bell(N, 3.0, 5.0, 3.0), 300);
+    assert_eq!(wrap.peak(0).0, 3);
+}
+
+#[test]
+fn no_peak_below_threshold() {
+    let mut field = FieldBatch::new(FieldConfig::default(), 1).unwrap();
+    settle(&mut field, &bell(N, 40.0, 1.8, 3.0), 2000);
+    assert!(
+        field.field(0).iter().all(|&u| u < 0.0),
+        "{:?}",
+        field.field(0)
+    );
+}
+
+#[test]
+fn two_stimuli_have_one_winner() {
+    let mut field = FieldBatch::new(FieldConfig::default(), 2).unwrap();
+    let mut s: Vec<f32> = bell(N, 10.0, 5.0, 3.0)
+        .iter()
+        .zip(bell(N, 45.0, 4.5, 3.0))
+        .map(|(a, b)| a + b)
+        .collect();
+    // The second field sees the two stimuli with the strengths swapped.
+    s.extend(
+        bell(N, 10.0, 4.5, 3.0)
+            .iter()
+            .zip(bell(N, 45.0, 5.0, 3.0))
+            .map(|(a, b)| a + b),
+    );
+    settle(&mut field, &s, 2000);
+    for (b, winner) in [(0, 10), (1, 45)] {
+        let arc = active_arc(field.field(b)).expect("one contiguous peak");
+        assert!(
+            arc.iter().all(|&i| ring_distance(i, winner, N) <= 4),
+            "field {b}: {arc:?}"
+        );
+        assert_eq!(field.peak(b).0, winner);
+    }
+}
+
+#[test]
+fn difference_of_gaussians_and_sigmoid_also_select_one_heading() {
+    let cfg = FieldConfig {
+        interaction: Interaction::GaussianDifference {
+            a_e: 2.5,
+            sigma_e: 2.0,
+            a_i: 1.0,
+            sigma_i: 10.0,
+            global: 0.8,
+        },
+        activation: Activation::Sigmoid { beta: 4.0 },
+        ..Default::default()
+    };
+    let mut field = FieldBatch::new(cfg, 1).unwrap();
+    let s: Vec<f32> = bell(N, 50.0, 5.0, 3.0)
+        .iter()
+        .zip(bell(N, 20.0, 4.0, 3.0))
+        .map(|(a, b)| a + b)
+        .collect();
+    settle(&mut field, &s, 2000);
+    assert_eq!(field.peak(0).0, 50);
+    assert!(
+        field.field(0)[20] < 0.0,
+        "the weaker stimulus is suppressed"
+    );
+}
+
+#[test]
+fn bad_values_are_refused_by_name() {
+    let mut field = FieldBatch::new(FieldConfig::default(), 1).unwrap();
+    let mut s = vec![0.0; N];
+    s[7] = f32::NAN;
+    let e = field.step(&s, 1).unwrap_err().to_string();
+    assert!(e.contains("stimulus") && e.contains("neuron 7"), "{e}");
+    assert!(field.step(&[0.0; 3], 1).is_err());
+    for cfg in [
+        FieldConfig {
+            tau: f32::NAN,
+            ..Default::default()
+        },
+        FieldConfig {
+            dt: 1.0,
+            ..Default::default()
+        },
+        FieldConfig {
+            neurons: 2,
+            ..Default::default()
+        },
+        FieldConfig {
+            h: f32::INFINITY,
+            ..Default::default()
+        },
+    ] {
+        assert!(FieldBatch::new(cfg, 1).is_err());
+    }
+    assert!(FieldBatch::new(FieldConfig::default(), 0).is_err());
+}
