@@ -149,3 +149,61 @@ fn bad_values_are_refused_by_name() {
     }
     assert!(FieldBatch::new(FieldConfig::default(), 0).is_err());
 }
+
+mod common;
+
+/// GPU and CPU fields agree after long runs (many dispatches) for both kernels: the same peak
+/// in every field and activations within 1e-3 (float sums in another order; a Heaviside step
+/// can only flip for a neuron at zero, which a settled field does not have).
+#[test]
+fn gpu_fields_match_the_cpu() {
+    let Some(ctx) = common::gpu() else { return };
+    let configs = [
+        FieldConfig::default(),
+        FieldConfig {
+            interaction: Interaction::GaussianDifference {
+                a_e: 2.5,
+                sigma_e: 2.0,
+                a_i: 1.0,
+                sigma_i: 10.0,
+                global: 0.8,
+            },
+            activation: Activation::Sigmoid { beta: 4.0 },
+            ..Default::default()
+        },
+    ];
+    for cfg in configs {
+        let fields = 64;
+        let mut stimulus = Vec::new();
+        for b in 0..fields {
+            let c1 = (b * 7 % N) as f32;
+            let c2 = ((b * 13 + 30) % N) as f32;
+            let a2 = 3.0 + (b % 5) as f32 * 0.4;
+            stimulus.extend(
+                bell(N, c1, 5.0, 3.0)
+                    .iter()
+                    .zip(bell(N, c2, a2, 2.5))
+                    .map(|(a, b)| a + b),
+            );
+        }
+        let mut cpu = FieldBatch::new(cfg.clone(), fields).unwrap();
+        let mut gpu =
+            steernav::gpu::dnf::GpuFieldBatch::new(ctx.clone(), cfg.clone(), fields).unwrap();
+        // 1500 steps: several dispatches, far past lavapipe's per-invocation loop cap if run in one.
+        cpu.step(&stimulus, 1500).unwrap();
+        gpu.step(&stimulus, 1500).unwrap();
+        let g = gpu.read().unwrap();
+        let diff = cpu
+            .u
+            .iter()
+            .zip(&g)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(diff < 1e-3, "{:?}: max difference {diff}", cfg.interaction);
+        for b in 0..fields {
+            let gf = &g[b * N..(b + 1) * N];
+            let gp = (0..N).fold(0, |best, i| if gf[i] > gf[best] { i } else { best });
+            assert_eq!(gp, cpu.peak(b).0, "field {b}");
+        }
+    }
+}

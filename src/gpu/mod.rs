@@ -2,6 +2,7 @@
 //! drivers of the WGSL stages.
 
 pub mod context;
+pub mod dnf;
 pub mod filter_bank;
 pub mod harris;
 pub mod pipelines;

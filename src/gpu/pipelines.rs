@@ -12,8 +12,11 @@ pub mod sources {
     pub const NMS: &str = include_str!("../../shaders/nms.wgsl");
     /// Steering of basis responses.
     pub const STEER: &str = include_str!("../../shaders/steer.wgsl");
+    /// The dynamic neural field.
+    pub const DNF: &str = include_str!("../../shaders/dnf.wgsl");
     /// Every shader with its file name.
-    pub const ALL: [(&str, &str); 5] = [
+    pub const ALL: [(&str, &str); 6] = [
+        ("dnf.wgsl", DNF),
         ("convolve.wgsl", CONVOLVE),
         ("products.wgsl", PRODUCTS),
         ("response.wgsl", RESPONSE),
@@ -36,6 +39,8 @@ pub struct Pipelines {
     pub nms: wgpu::ComputePipeline,
     /// `steer.wgsl`.
     pub steer: wgpu::ComputePipeline,
+    /// `dnf.wgsl`.
+    pub dnf: wgpu::ComputePipeline,
 }
 
 impl Pipelines {
@@ -65,6 +70,7 @@ impl Pipelines {
             response: pipeline("response", &module("response", sources::RESPONSE), "main"),
             nms: pipeline("nms", &module("nms", sources::NMS), "main"),
             steer: pipeline("steer", &module("steer", sources::STEER), "main"),
+            dnf: pipeline("dnf", &module("dnf", sources::DNF), "main"),
         }
     }
 }
