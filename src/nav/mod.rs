@@ -1,4 +1,6 @@
 //! Navigation with a dynamic neural field (paper section 3): the Amari field over heading
-//! directions (eqs 28–31). Stimuli, GIST, velocity laws and the simulator come next.
+//! directions (eqs 28–31), its stimuli and velocity laws (eqs 32–37). GIST, the simulator and
+//! the experiments come next.
 
 pub mod dnf;
+pub mod stimulus;
