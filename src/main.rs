@@ -35,8 +35,24 @@ enum Command {
     Eval(EvalKind),
     /// Time every stage of detect on the CPU and the GPU at several image sizes.
     Bench(BenchCmd),
+    /// Drive the neural field with every scan of a CARMEN log (FLASER lines, gzipped or not):
+    /// fraction of scans whose chosen heading is free, and its deviation from the real motion.
+    NavReplay(NavReplayCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
+}
+
+#[derive(Args)]
+struct NavReplayCmd {
+    /// CARMEN log (.log or .log.gz).
+    log: PathBuf,
+    /// TOML file with replay settings ([field], [stimulus] tables and the top-level keys of
+    /// ReplayConfig; every key optional).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print {"scans", "free_fraction", "mean_abs_deviation_deg"} as JSON.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args)]
@@ -259,6 +275,7 @@ fn main() -> ExitCode {
         Command::Eval(EvalKind::Rotation(cmd)) => eval_rotation(cmd),
         Command::Eval(EvalKind::Homography(cmd)) => eval_homography(cmd),
         Command::Bench(cmd) => bench(cmd),
+        Command::NavReplay(cmd) => nav_replay(cmd),
         Command::Info => info(),
     };
     match result {
@@ -558,6 +575,32 @@ fn report(
             x_label,
         )?;
         eprintln!("wrote {}", path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn nav_replay(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
+    let cfg: steernav::nav::replay::ReplayConfig = match &cmd.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read config", path.display()))?;
+            toml::from_str(&text)
+                .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?
+        }
+        None => Default::default(),
+    };
+    let scans = steernav::nav::carmen::read_log(&cmd.log)?;
+    let r = steernav::nav::replay::replay(&scans, &cfg)?;
+    if cmd.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "{}: {} scans with motion; chosen heading free on {:.1}%; mean |deviation| from the real motion {:.1}°",
+            cmd.log.display(),
+            r.scans,
+            100.0 * r.free_fraction,
+            r.mean_abs_deviation_deg
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,0 +1,186 @@
+//! `nav-replay`: drive the stimuli and the field with every scan of a real CARMEN log, taking
+//! as target the direction in which the robot really moved over the next second, and report
+//! how often the chosen heading is free and how far it deviates from the real motion.
+//!
+//! Beams are many point obstacles, so each beam's weight c_o is scaled by the angular density
+//! (Δφ·√(σ/π)): a wall then inhibits about as strongly as one obstacle of eq 32 would, whatever
+//! the scanner's resolution. Headings outside the scanner's 180° field of view are unknown and
+//! are inhibited by `rear_inhibition`.
+
+use serde::{Deserialize, Serialize};
+
+use super::carmen::Scan;
+use super::dnf::{FieldBatch, FieldConfig};
+use super::stimulus::{angle_diff, combined, obstacle_stimulus, target_stimulus, StimulusConfig};
+use crate::error::Result;
+
+/// Settings of a replay.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReplayConfig {
+    /// The field.
+    pub field: FieldConfig,
+    /// The stimuli.
+    pub stimulus: StimulusConfig,
+    /// Euler steps of the field per scan. Default 30.
+    pub steps_per_scan: usize,
+    /// The target is where the robot is this many seconds later. Default 1.0.
+    pub lookahead: f64,
+    /// Scans after which the robot moves less than this (m) in the look-ahead are skipped.
+    /// Default 0.1.
+    pub min_motion: f64,
+    /// A heading is free when every beam within ±`free_halfwidth_deg` reads beyond this (m).
+    /// Default 0.5.
+    pub safety: f32,
+    /// Default 10°.
+    pub free_halfwidth_deg: f32,
+    /// Stimulus subtracted from headings outside the field of view. Default 4.
+    pub rear_inhibition: f32,
+    /// When a log's timestamps are too coarse to measure one second (the corrected CSAIL log
+    /// prints them with six digits, so consecutive scans share one), the target is the
+    /// direction to the first later pose at least this far (m). Default 0.3.
+    pub fallback_distance: f64,
+}
+
+impl Default for ReplayConfig {
+    fn default() -> Self {
+        Self {
+            field: FieldConfig::default(),
+            stimulus: StimulusConfig::default(),
+            steps_per_scan: 30,
+            lookahead: 1.0,
+            min_motion: 0.1,
+            safety: 0.5,
+            free_halfwidth_deg: 10.0,
+            rear_inhibition: 4.0,
+            fallback_distance: 0.3,
+        }
+    }
+}
+
+/// Whether the log's timestamps resolve the look-ahead (most consecutive scans differ in time).
+pub fn timestamps_usable(scans: &[Scan]) -> bool {
+    let distinct = scans.windows(2).filter(|w| w[1].time > w[0].time).count();
+    distinct * 2 > scans.len().saturating_sub(1)
+}
+
+/// The later scan that defines the target of scan `k`: one look-ahead later in time, or, when
+/// the timestamps are too coarse, the first pose `fallback_distance` away.
+fn later<'a>(scans: &'a [Scan], k: usize, cfg: &ReplayConfig, by_time: bool) -> Option<&'a Scan> {
+    let s = &scans[k];
+    if by_time {
+        scans[k..].iter().find(|l| l.time >= s.time + cfg.lookahead)
+    } else {
+        scans[k..]
+            .iter()
+            .find(|l| (l.x - s.x).hypot(l.y - s.y) >= cfg.fallback_distance)
+    }
+}
+
+/// Offset between the log's pose heading and the scanner's forward axis, estimated from the
+/// motion and rounded to a multiple of 90° (a frame convention, not a per-scan fit): the
+/// corrected CSAIL log's θ points 90° away from the direction the robot drives.
+pub fn frame_offset(scans: &[Scan], cfg: &ReplayConfig) -> f64 {
+    let (mut sx, mut sy) = (0.0f64, 0.0f64);
+    let by_time = timestamps_usable(scans);
+    for (k, scan) in scans.iter().enumerate() {
+        let Some(later) = later(scans, k, cfg, by_time) else {
+            break;
+        };
+        let (dx, dy) = (later.x - scan.x, later.y - scan.y);
+        if dx.hypot(dy) >= cfg.min_motion {
+            let a = dy.atan2(dx) - scan.theta;
+            sx += a.cos();
+            sy += a.sin();
+        }
+    }
+    let quarter = std::f64::consts::FRAC_PI_2;
+    (sy.atan2(sx) / quarter).round() * quarter
+}
+
+/// The figures of a replay.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ReplayResult {
+    /// Scans evaluated.
+    pub scans: usize,
+    /// Fraction of them whose chosen heading is free.
+    pub free_fraction: f64,
+    /// Mean |chosen heading − real motion| in degrees.
+    pub mean_abs_deviation_deg: f64,
+}
+
+/// Whether `heading` (robot frame) is free in `scan`.
+pub fn is_free(scan: &Scan, heading: f32, safety: f32, halfwidth: f32) -> bool {
+    let mut seen = false;
+    for (&r, &b) in scan.ranges.iter().zip(&scan.bearings) {
+        if angle_diff(b, heading).abs() <= halfwidth {
+            seen = true;
+            if !(r > safety) {
+                return false;
+            }
+        }
+    }
+    seen
+}
+
+/// Replays a log.
+pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
+    cfg.field.validate()?;
+    cfg.stimulus.validate()?;
+    let n = cfg.field.neurons;
+    let mut field = FieldBatch::new(cfg.field.clone(), 1)?;
+    let (mut evaluated, mut free, mut deviation) = (0usize, 0usize, 0.0f64);
+    let halfwidth = cfg.free_halfwidth_deg.to_radians();
+    let offset = frame_offset(scans, cfg);
+    let by_time = timestamps_usable(scans);
+    for (k, scan) in scans.iter().enumerate() {
+        let Some(later) = later(scans, k, cfg, by_time) else {
+            break;
+        };
+        let (dx, dy) = (later.x - scan.x, later.y - scan.y);
+        if dx.hypot(dy) < cfg.min_motion {
+            continue;
+        }
+        let target = angle_diff((dy.atan2(dx) - scan.theta - offset) as f32, 0.0);
+        // Beams as point obstacles, weighted by their angular density (see the module docs).
+        let spacing = std::f32::consts::PI / (scan.ranges.len().max(2) - 1) as f32;
+        let beam_cfg = StimulusConfig {
+            c_o: cfg.stimulus.c_o * spacing * (cfg.stimulus.sigma / std::f32::consts::PI).sqrt(),
+            ..cfg.stimulus.clone()
+        };
+        let valid: Vec<(f32, f32)> = scan
+            .ranges
+            .iter()
+            .zip(&scan.bearings)
+            .filter(|(r, _)| **r > 0.0)
+            .map(|(r, b)| (*r, *b))
+            .collect();
+        let (ranges, bearings): (Vec<f32>, Vec<f32>) = valid.into_iter().unzip();
+        let obstacle = obstacle_stimulus(&ranges, &bearings, &beam_cfg, n)?;
+        let mut s = combined(&target_stimulus(target, &cfg.stimulus, n), &obstacle);
+        for (i, si) in s.iter_mut().enumerate() {
+            let h = angle_diff(i as f32 * std::f32::consts::TAU / n as f32, 0.0);
+            if h.abs() > std::f32::consts::FRAC_PI_2 {
+                *si -= cfg.rear_inhibition;
+            }
+        }
+        field.step(&s, cfg.steps_per_scan)?;
+        let heading = angle_diff(field.peak(0).1, 0.0);
+        evaluated += 1;
+        free += is_free(scan, heading, cfg.safety, halfwidth) as usize;
+        deviation += angle_diff(heading, target).abs().to_degrees() as f64;
+    }
+    Ok(ReplayResult {
+        scans: evaluated,
+        free_fraction: if evaluated == 0 {
+            0.0
+        } else {
+            free as f64 / evaluated as f64
+        },
+        mean_abs_deviation_deg: if evaluated == 0 {
+            0.0
+        } else {
+            deviation / evaluated as f64
+        },
+    })
+}
