@@ -115,7 +115,7 @@ pub fn is_free(scan: &Scan, heading: f32, safety: f32, halfwidth: f32) -> bool {
     for (&r, &b) in scan.ranges.iter().zip(&scan.bearings) {
         if angle_diff(b, heading).abs() <= halfwidth {
             seen = true;
-            if !(r > safety) {
+            if r.is_nan() || r <= safety {
                 return false;
             }
         }
