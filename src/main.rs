@@ -35,11 +35,24 @@ enum Command {
     Eval(EvalKind),
     /// Time every stage of detect on the CPU and the GPU at several image sizes.
     Bench(BenchCmd),
+    /// GIST descriptors (eqs 38–41) of images: one JSON object per line, {"image", "gist"}.
+    Gist(GistCmd),
     /// Drive the neural field with every scan of a CARMEN log (FLASER lines, gzipped or not):
     /// fraction of scans whose chosen heading is free, and its deviation from the real motion.
     NavReplay(NavReplayCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
+}
+
+#[derive(Args)]
+struct GistCmd {
+    /// Input images.
+    #[arg(required = true, value_name = "IMAGE")]
+    images: Vec<PathBuf>,
+    /// TOML file with GIST settings (size, orientations_per_scale, blocks, prefilter,
+    /// prefilter_fc, boundary; every key optional).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -276,6 +289,7 @@ fn main() -> ExitCode {
         Command::Eval(EvalKind::Homography(cmd)) => eval_homography(cmd),
         Command::Bench(cmd) => bench(cmd),
         Command::NavReplay(cmd) => nav_replay(cmd),
+        Command::Gist(cmd) => gist(cmd),
         Command::Info => info(),
     };
     match result {
@@ -577,6 +591,37 @@ fn report(
         eprintln!("wrote {}", path.display());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
+    let cfg: steernav::nav::gist::GistConfig = match &cmd.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read config", path.display()))?;
+            toml::from_str(&text)
+                .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?
+        }
+        None => Default::default(),
+    };
+    let engine = steernav::nav::gist::GistEngine::new(cfg)?;
+    let mut failed = 0;
+    for path in &cmd.images {
+        match Frame::load(path).and_then(|f| engine.describe(&f)) {
+            Ok(d) => println!(
+                "{}",
+                serde_json::json!({"image": path.display().to_string(), "gist": d})
+            ),
+            Err(e) => {
+                eprintln!("error: {e}");
+                failed += 1;
+            }
+        }
+    }
+    Ok(if failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 fn nav_replay(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {

@@ -4,5 +4,6 @@
 
 pub mod carmen;
 pub mod dnf;
+pub mod gist;
 pub mod replay;
 pub mod stimulus;

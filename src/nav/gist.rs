@@ -1,0 +1,409 @@
+//! The GIST descriptor (eqs 38–41), after Oliva & Torralba's reference code (LMgist): the image
+//! is resized to M×M, pre-filtered (log, whitening, local contrast normalisation), filtered by
+//! a Gabor bank of L scales × O orientations in the frequency domain, and the magnitude of each
+//! response is averaged over K×K windows: L·O·K² floats (512 by default).
+//!
+//! This is the CPU reference: FFTs by rustfft, the 32 filters in parallel.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use rustfft::num_complex::Complex32;
+use rustfft::{Fft, FftPlanner};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::image::Frame;
+
+/// GIST parameters, with the reference code's defaults.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GistConfig {
+    /// Side M of the resized image. Default 256.
+    pub size: usize,
+    /// Orientations at each scale (its length is the number of scales L). Default [8, 8, 8, 8].
+    pub orientations_per_scale: Vec<usize>,
+    /// Windows per side K. Default 4.
+    pub blocks: usize,
+    /// Apply the whitening + local contrast pre-filter. Default true.
+    pub prefilter: bool,
+    /// Cut-off of the pre-filter (cycles per image). Default 4.
+    pub prefilter_fc: f32,
+    /// Symmetric padding around the image before filtering (px). Default 32.
+    pub boundary: usize,
+}
+
+impl Default for GistConfig {
+    fn default() -> Self {
+        Self {
+            size: 256,
+            orientations_per_scale: vec![8; 4],
+            blocks: 4,
+            prefilter: true,
+            prefilter_fc: 4.0,
+            boundary: 32,
+        }
+    }
+}
+
+impl GistConfig {
+    /// Checks the values; the error names the field.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |field: &'static str, value: String, reason: &str| {
+            Err(Error::Config {
+                field,
+                value,
+                reason: reason.into(),
+            })
+        };
+        if !(16..=2048).contains(&self.size) {
+            return bad("size", self.size.to_string(), "must be in 16..=2048");
+        }
+        if self.orientations_per_scale.is_empty()
+            || self
+                .orientations_per_scale
+                .iter()
+                .any(|&o| o == 0 || o > 64)
+        {
+            return bad(
+                "orientations_per_scale",
+                format!("{:?}", self.orientations_per_scale),
+                "1..=64 orientations at each of at least one scale",
+            );
+        }
+        if self.blocks == 0 || self.blocks > self.size {
+            return bad("blocks", self.blocks.to_string(), "must be in 1..=size");
+        }
+        if !(self.prefilter_fc.is_finite() && self.prefilter_fc > 0.0) {
+            return bad(
+                "prefilter_fc",
+                self.prefilter_fc.to_string(),
+                "must be a finite number > 0",
+            );
+        }
+        if self.boundary > self.size {
+            return bad(
+                "boundary",
+                self.boundary.to_string(),
+                "must be at most size",
+            );
+        }
+        Ok(())
+    }
+
+    /// Number of floats in a descriptor.
+    pub fn len(&self) -> usize {
+        self.orientations_per_scale.iter().sum::<usize>() * self.blocks * self.blocks
+    }
+
+    /// Whether the descriptor would be empty (never, for a valid config).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Frequency (cycles per image) of index `i` of an n-point FFT.
+fn freq(i: usize, n: usize) -> f32 {
+    if i < n / 2 {
+        i as f32
+    } else {
+        i as f32 - n as f32
+    }
+}
+
+/// The Gabor transfer functions of the reference code's createGabor, n×n, DC at index 0.
+pub fn gabor_bank(cfg: &GistConfig, n: usize) -> Vec<Vec<f32>> {
+    let mut bank = Vec::new();
+    for (scale, &orients) in cfg.orientations_per_scale.iter().enumerate() {
+        for o in 0..orients {
+            let p1 = 0.35f32;
+            let p2 = 0.3 / 1.85f32.powi(scale as i32);
+            let p3 = 16.0 * (orients * orients) as f32 / (32.0 * 32.0);
+            let p4 = std::f32::consts::PI / orients as f32 * o as f32;
+            let mut g = vec![0.0f32; n * n];
+            for y in 0..n {
+                for x in 0..n {
+                    let (fx, fy) = (freq(x, n), freq(y, n));
+                    let fr = (fx * fx + fy * fy).sqrt();
+                    let mut tr = fy.atan2(fx) + p4;
+                    if tr < -std::f32::consts::PI {
+                        tr += std::f32::consts::TAU;
+                    } else if tr > std::f32::consts::PI {
+                        tr -= std::f32::consts::TAU;
+                    }
+                    g[y * n + x] = (-10.0 * p1 * (fr / n as f32 / p2 - 1.0).powi(2)
+                        - 2.0 * p3 * std::f32::consts::PI * tr * tr)
+                        .exp();
+                }
+            }
+            bank.push(g);
+        }
+    }
+    bank
+}
+
+/// A 2-D FFT of n×n complex values in place (rows, then columns).
+struct Fft2 {
+    n: usize,
+    forward: Arc<dyn Fft<f32>>,
+    inverse: Arc<dyn Fft<f32>>,
+}
+
+impl Fft2 {
+    fn new(n: usize) -> Self {
+        let mut planner = FftPlanner::new();
+        Self {
+            n,
+            forward: planner.plan_fft_forward(n),
+            inverse: planner.plan_fft_inverse(n),
+        }
+    }
+
+    fn run(&self, data: &mut [Complex32], inverse: bool, column: &mut Vec<Complex32>) {
+        let n = self.n;
+        let plan = if inverse {
+            &self.inverse
+        } else {
+            &self.forward
+        };
+        plan.process(data);
+        column.resize(n, Complex32::new(0.0, 0.0));
+        for x in 0..n {
+            for y in 0..n {
+                column[y] = data[y * n + x];
+            }
+            plan.process(column);
+            for y in 0..n {
+                data[y * n + x] = column[y];
+            }
+        }
+        if inverse {
+            let scale = 1.0 / (n * n) as f32;
+            for v in data.iter_mut() {
+                *v *= scale;
+            }
+        }
+    }
+}
+
+/// Computes GIST descriptors; build once, describe many images.
+pub struct GistEngine {
+    config: GistConfig,
+    n: usize,
+    fft: Fft2,
+    bank: Vec<Vec<f32>>,
+    prefilter_gain: Vec<f32>,
+}
+
+impl GistEngine {
+    /// Plans the FFTs and builds the filter bank.
+    pub fn new(config: GistConfig) -> Result<Self> {
+        config.validate()?;
+        let n = config.size + 2 * config.boundary;
+        let bank = gabor_bank(&config, n);
+        let s1 = config.prefilter_fc / (2f32.ln()).sqrt();
+        let pn = config.size + 10; // the pre-filter pads by 5 px, as the reference code does
+        let prefilter_gain = (0..pn * pn)
+            .map(|i| {
+                let (fx, fy) = (freq(i % pn, pn), freq(i / pn, pn));
+                (-(fx * fx + fy * fy) / (s1 * s1)).exp()
+            })
+            .collect();
+        Ok(Self {
+            fft: Fft2::new(n),
+            config,
+            n,
+            bank,
+            prefilter_gain,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &GistConfig {
+        &self.config
+    }
+
+    /// The descriptor of one frame (L·O·K² floats, filter after filter, windows row-major).
+    pub fn describe(&self, frame: &Frame) -> Result<Vec<f32>> {
+        crate::image::check_size("image", frame.width, frame.height)?;
+        let m = self.config.size;
+        let mut img = resize(&frame.gray, frame.width as usize, frame.height as usize, m);
+        for v in &mut img {
+            *v *= 255.0;
+        }
+        if self.config.prefilter {
+            img = self.prefilter(&img);
+        }
+        let (n, b) = (self.n, self.config.boundary);
+        let padded = pad_symmetric(&img, m, b);
+        let mut spectrum: Vec<Complex32> = padded.iter().map(|&v| Complex32::new(v, 0.0)).collect();
+        self.fft.run(&mut spectrum, false, &mut Vec::new());
+        let k = self.config.blocks;
+        let per_filter: Vec<Vec<f32>> = self
+            .bank
+            .par_iter()
+            .map_init(Vec::new, |column, g| {
+                let mut data: Vec<Complex32> =
+                    spectrum.iter().zip(g).map(|(s, &w)| s * w).collect();
+                self.fft.run(&mut data, true, column);
+                let mut out = vec![0.0f32; k * k];
+                let mut counts = vec![0usize; k * k];
+                for y in 0..m {
+                    for x in 0..m {
+                        let cell = (y * k / m) * k + x * k / m;
+                        out[cell] += data[(y + b) * n + x + b].norm();
+                        counts[cell] += 1;
+                    }
+                }
+                out.iter()
+                    .zip(&counts)
+                    .map(|(s, &c)| s / c as f32)
+                    .collect()
+            })
+            .collect();
+        Ok(per_filter.concat())
+    }
+
+    /// log, whitening and local contrast normalisation (the reference code's prefilt).
+    fn prefilter(&self, img: &[f32]) -> Vec<f32> {
+        let m = self.config.size;
+        let w = 5;
+        let pn = m + 2 * w;
+        let logged: Vec<f32> = img.iter().map(|v| (v + 1.0).ln()).collect();
+        let padded = pad_symmetric(&logged, m, w);
+        let fft = Fft2::new(pn);
+        let mut column = Vec::new();
+        let mut data: Vec<Complex32> = padded.iter().map(|&v| Complex32::new(v, 0.0)).collect();
+        fft.run(&mut data, false, &mut column);
+        for (d, g) in data.iter_mut().zip(&self.prefilter_gain) {
+            *d *= 1.0 - g;
+        }
+        fft.run(&mut data, true, &mut column);
+        let white: Vec<f32> = data.iter().map(|c| c.re).collect();
+        let mut energy: Vec<Complex32> =
+            white.iter().map(|&v| Complex32::new(v * v, 0.0)).collect();
+        fft.run(&mut energy, false, &mut column);
+        for (d, g) in energy.iter_mut().zip(&self.prefilter_gain) {
+            *d *= g;
+        }
+        fft.run(&mut energy, true, &mut column);
+        let mut out = vec![0.0f32; m * m];
+        for y in 0..m {
+            for x in 0..m {
+                let i = (y + w) * pn + x + w;
+                out[y * m + x] = white[i] / (0.2 + energy[i].norm().sqrt());
+            }
+        }
+        out
+    }
+}
+
+/// Bilinear resize of a plane to `m`×`m` (area-averaged first when shrinking by more than 2).
+fn resize(src: &[f32], w: usize, h: usize, m: usize) -> Vec<f32> {
+    let img = image::ImageBuffer::<image::Luma<f32>, Vec<f32>>::from_raw(
+        w as u32,
+        h as u32,
+        src.to_vec(),
+    )
+    .expect("plane size matches");
+    image::imageops::resize(
+        &img,
+        m as u32,
+        m as u32,
+        image::imageops::FilterType::Triangle,
+    )
+    .into_raw()
+}
+
+/// Symmetric (mirror) padding by `b` on every side of an m×m plane.
+fn pad_symmetric(img: &[f32], m: usize, b: usize) -> Vec<f32> {
+    let n = m + 2 * b;
+    let mirror = |i: isize| -> usize {
+        let m = m as isize;
+        let mut i = i;
+        loop {
+            if i < 0 {
+                i = -i - 1;
+            } else if i >= m {
+                i = 2 * m - i - 1;
+            } else {
+                return i as usize;
+            }
+        }
+    };
+    let mut out = vec![0.0f32; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            out[y * n + x] =
+                img[mirror(y as isize - b as isize) * m + mirror(x as isize - b as isize)];
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stripes(vertical: bool) -> Frame {
+        let (w, h) = (200u32, 160u32);
+        let gray: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                0.5 + 0.4 * ((if vertical { x } else { y }) * 0.6).sin()
+            })
+            .collect();
+        Frame::from_gray(w, h, gray).unwrap()
+    }
+
+    #[test]
+    fn descriptor_has_512_values_and_sees_orientation() {
+        let engine = GistEngine::new(GistConfig::default()).unwrap();
+        let v = engine.describe(&stripes(true)).unwrap();
+        let hz = engine.describe(&stripes(false)).unwrap();
+        assert_eq!(v.len(), 512);
+        assert!(v.iter().all(|x| x.is_finite() && *x >= 0.0));
+        // Energy per orientation (summed over scales and windows): vertical stripes vary along
+        // x, horizontal ones along y, so their strongest orientations differ by 90° (4 of 8).
+        let by_orientation = |d: &[f32]| -> Vec<f32> {
+            (0..8)
+                .map(|o| {
+                    (0..4)
+                        .map(|s| {
+                            d[(s * 8 + o) * 16..(s * 8 + o + 1) * 16]
+                                .iter()
+                                .sum::<f32>()
+                        })
+                        .sum()
+                })
+                .collect()
+        };
+        let argmax = |e: Vec<f32>| (0..e.len()).fold(0, |b, i| if e[i] > e[b] { i } else { b });
+        let (a, b) = (argmax(by_orientation(&v)), argmax(by_orientation(&hz)));
+        assert_eq!((a as i32 - b as i32).rem_euclid(8), 4, "{a} vs {b}");
+        // Deterministic.
+        assert_eq!(v, engine.describe(&stripes(true)).unwrap());
+    }
+
+    #[test]
+    fn flat_images_have_little_energy_and_bad_configs_are_named() {
+        let engine = GistEngine::new(GistConfig::default()).unwrap();
+        let flat = Frame::from_gray(64, 48, vec![0.5; 64 * 48]).unwrap();
+        let d = engine.describe(&flat).unwrap();
+        let s = engine.describe(&stripes(true)).unwrap();
+        assert!(d.iter().sum::<f32>() < 0.01 * s.iter().sum::<f32>());
+        let e = GistEngine::new(GistConfig {
+            blocks: 0,
+            ..Default::default()
+        })
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(e.contains("blocks"), "{e}");
+        assert!(GistEngine::new(GistConfig {
+            prefilter_fc: f32::NAN,
+            ..Default::default()
+        })
+        .is_err());
+    }
+}
