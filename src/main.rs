@@ -593,16 +593,18 @@ fn report(
     Ok(ExitCode::SUCCESS)
 }
 
-fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
-    let cfg: steernav::nav::gist::GistConfig = match &cmd.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read config", path.display()))?;
-            toml::from_str(&text)
-                .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?
-        }
-        None => Default::default(),
+/// A settings struct from an optional TOML file (defaults without one); errors name the file.
+fn load_toml<T: serde::de::DeserializeOwned + Default>(path: Option<&Path>) -> anyhow::Result<T> {
+    let Some(path) = path else {
+        return Ok(T::default());
     };
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read config", path.display()))?;
+    toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))
+}
+
+fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
+    let cfg: steernav::nav::gist::GistConfig = load_toml(cmd.config.as_deref())?;
     let engine = steernav::nav::gist::GistEngine::new(cfg)?;
     let mut failed = 0;
     for path in &cmd.images {
@@ -625,15 +627,7 @@ fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
 }
 
 fn nav_replay(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
-    let cfg: steernav::nav::replay::ReplayConfig = match &cmd.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read config", path.display()))?;
-            toml::from_str(&text)
-                .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?
-        }
-        None => Default::default(),
-    };
+    let cfg: steernav::nav::replay::ReplayConfig = load_toml(cmd.config.as_deref())?;
     let scans = steernav::nav::carmen::read_log(&cmd.log)?;
     let r = steernav::nav::replay::replay(&scans, &cfg)?;
     if cmd.json {

@@ -9,7 +9,7 @@ use bytemuck::{Pod, Zeroable};
 use super::util::{bind, read_storage, storage, storage_init, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
-use crate::nav::dnf::{Activation, FieldConfig, Interaction};
+use crate::nav::dnf::{check_stimulus, Activation, FieldConfig, Interaction};
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -137,25 +137,7 @@ impl GpuFieldBatch {
 
     /// Advances every field by `steps` Euler steps under `stimulus` (`fields × neurons`).
     pub fn step(&mut self, stimulus: &[f32], steps: usize) -> Result<()> {
-        let n = self.config.neurons;
-        if stimulus.len() != self.fields * n {
-            return Err(Error::Config {
-                field: "stimulus",
-                value: format!("{} values", stimulus.len()),
-                reason: format!("expected fields × neurons = {}", self.fields * n),
-            });
-        }
-        if let Some(i) = stimulus.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Config {
-                field: "stimulus",
-                value: stimulus[i].to_string(),
-                reason: format!(
-                    "value {i} (field {}, neuron {}) is not finite",
-                    i / n,
-                    i % n
-                ),
-            });
-        }
+        check_stimulus(stimulus, self.fields, self.config.neurons)?;
         let queue = &self.ctx.queue;
         queue.write_buffer(&self.stimulus, 0, bytemuck::cast_slice(stimulus));
         let mut left = steps;

@@ -207,6 +207,29 @@ impl FieldConfig {
     }
 }
 
+/// Checks a stimulus of `fields × neurons` finite values; errors name the offending value.
+pub fn check_stimulus(stimulus: &[f32], fields: usize, neurons: usize) -> Result<()> {
+    if stimulus.len() != fields * neurons {
+        return Err(Error::Config {
+            field: "stimulus",
+            value: format!("{} values", stimulus.len()),
+            reason: format!("expected fields × neurons = {}", fields * neurons),
+        });
+    }
+    if let Some(i) = stimulus.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Config {
+            field: "stimulus",
+            value: stimulus[i].to_string(),
+            reason: format!(
+                "value {i} (field {}, neuron {}) is not finite",
+                i / neurons,
+                i % neurons
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Heading (radians, [0, 2π)) of neuron `i` on a ring of `n`.
 pub fn heading(i: usize, n: usize) -> f32 {
     i as f32 * std::f32::consts::TAU / n as f32
@@ -241,25 +264,8 @@ impl FieldBatch {
     /// Advances every field by `steps` Euler steps under `stimulus` (`fields × neurons`, held
     /// constant over the steps). Non-finite stimulus values are refused.
     pub fn step(&mut self, stimulus: &[f32], steps: usize) -> Result<()> {
+        check_stimulus(stimulus, self.fields, self.config.neurons)?;
         let n = self.config.neurons;
-        if stimulus.len() != self.u.len() {
-            return Err(Error::Config {
-                field: "stimulus",
-                value: format!("{} values", stimulus.len()),
-                reason: format!("expected fields × neurons = {}", self.u.len()),
-            });
-        }
-        if let Some(i) = stimulus.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Config {
-                field: "stimulus",
-                value: stimulus[i].to_string(),
-                reason: format!(
-                    "value {i} (field {}, neuron {}) is not finite",
-                    i / n,
-                    i % n
-                ),
-            });
-        }
         let cfg = &self.config;
         if let (
             Interaction::Amari {
