@@ -62,5 +62,16 @@ pub enum Error {
     Gpu(String),
 }
 
+impl Error {
+    /// A [`Error::Config`] for `field` holding `value`, with the rule it breaks.
+    pub fn config(field: &'static str, value: impl ToString, reason: impl Into<String>) -> Self {
+        Error::Config {
+            field,
+            value: value.to_string(),
+            reason: reason.into(),
+        }
+    }
+}
+
 /// Shorthand for results of this crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -39,8 +39,9 @@ fn axpy_plain(acc: &mut [f32], src: &[f32], w: f32) {
     }
 }
 
+/// Whether the processor has AVX2 and FMA (cached by std after the first call).
 #[cfg(target_arch = "x86_64")]
-fn has_avx2_fma() -> bool {
+pub(crate) fn has_avx2_fma() -> bool {
     std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
 }
 

@@ -104,11 +104,7 @@ impl FieldConfig {
     /// Checks every value; the error names the field.
     pub fn validate(&self) -> Result<()> {
         let bad = |field: &'static str, value: String, reason: &str| {
-            Err(Error::Config {
-                field,
-                value,
-                reason: reason.into(),
-            })
+            Err(Error::config(field, value, reason))
         };
         if !(3..=4096).contains(&self.neurons) {
             return bad("neurons", self.neurons.to_string(), "must be in 3..=4096");
@@ -328,7 +324,7 @@ fn amari_block(
     steps: usize,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+    if crate::features::simd::has_avx2_fma() {
         // SAFETY: the CPU supports AVX2 and FMA (checked above).
         return unsafe { amari_block_avx2(cfg, excite, inhibit, width, u, s, steps) };
     }
@@ -439,7 +435,7 @@ fn run_steps(
     steps: usize,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
+    if crate::features::simd::has_avx2_fma() {
         // SAFETY: the CPU supports AVX2 and FMA (checked above).
         return unsafe { run_steps_avx2(cfg, kernel, u, s, f, lateral, ext, steps) };
     }

@@ -57,11 +57,7 @@ impl GistConfig {
     /// Checks the values; the error names the field.
     pub fn validate(&self) -> Result<()> {
         let bad = |field: &'static str, value: String, reason: &str| {
-            Err(Error::Config {
-                field,
-                value,
-                reason: reason.into(),
-            })
+            Err(Error::config(field, value, reason))
         };
         if !(16..=2048).contains(&self.size) {
             return bad("size", self.size.to_string(), "must be in 16..=2048");
