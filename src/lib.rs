@@ -29,4 +29,5 @@ pub mod eval;
 pub mod nav;
 pub mod output;
 pub mod plot;
+pub mod slam;
 pub mod synth;

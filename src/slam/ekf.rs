@@ -1,0 +1,528 @@
+//! The extended Kalman filter of section 2.6: state x = [camera, y₁ … yₙ] (eq 14), prediction
+//! (eqs 15–16), update (eqs 17–24) exploiting the sparsity of H, and the bookkeeping that keeps
+//! the state small — landmarks added from one observation, converted from inverse depth to
+//! Euclidean, deleted.
+//!
+//! The update never forms the dense H. Each observation's rows touch only the camera pose (7
+//! columns) and its landmark (6 or 3), so P Hᵀ costs O(n·m), S = H P Hᵀ + R costs O(m²), and
+//! the covariance update P ← P − W Wᵀ with W = P Hᵀ L⁻ᵀ (S = L Lᵀ, Cholesky) is the only
+//! O(n²·m) term. Computing it as one product W Wᵀ keeps P exactly symmetric (each entry and its
+//! mirror are the same sum of the same products), and the Cholesky factor makes it the
+//! numerically stable form of eq 24's (I − K H) P.
+
+use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, Vector2, Vector3};
+
+use super::camera::PinholeCamera;
+use super::inverse_depth::{self, Parametrisation, Prediction};
+use super::motion::{self, MotionModel, OdometryStep};
+use super::rotation::{self, Quat};
+
+/// Where a landmark lives in the state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slot {
+    /// Stable identifier of the landmark.
+    pub id: u64,
+    /// Parametrisation.
+    pub kind: Parametrisation,
+    /// Index of its first entry in x.
+    pub offset: usize,
+}
+
+/// One matched observation ready for the update.
+#[derive(Clone, Debug)]
+pub struct Observation {
+    /// Index into [`Filter::slots`].
+    pub slot: usize,
+    /// Measured pixel z.
+    pub pixel: Vector2<f64>,
+    /// Prediction h(x) with its Jacobians, at the current state.
+    pub prediction: Prediction,
+}
+
+/// Why an update was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UpdateError {
+    /// The innovation covariance is not positive definite (the state is inconsistent).
+    #[error("innovation covariance is not positive definite")]
+    NotPositiveDefinite,
+}
+
+/// The filter: state, covariance and landmark slots.
+#[derive(Clone, Debug)]
+pub struct Filter {
+    /// The camera model.
+    pub camera: PinholeCamera,
+    /// The motion model.
+    pub motion: MotionModel,
+    /// State vector.
+    pub x: DVector<f64>,
+    /// Covariance.
+    pub p: DMatrix<f64>,
+    /// Landmarks in state order.
+    pub slots: Vec<Slot>,
+    /// Pixel noise standard deviation (R = σ² I per observation).
+    pub pixel_sigma: f64,
+    next_id: u64,
+}
+
+/// The pose entries (r, q) are the first 7 of the camera state in every motion model.
+pub const POSE: usize = 7;
+
+impl Filter {
+    /// A filter at the origin, looking along +z, with a small velocity prior.
+    pub fn new(
+        camera: PinholeCamera,
+        motion: MotionModel,
+        pixel_sigma: f64,
+        velocity_sigma: f64,
+        angular_velocity_sigma: f64,
+    ) -> Self {
+        let n = motion.camera_dim();
+        let mut x = DVector::zeros(n);
+        x.fixed_rows_mut::<4>(3).copy_from(&rotation::identity());
+        let mut p = DMatrix::zeros(n, n);
+        // The first pose defines the world frame; a tiny variance keeps P well conditioned.
+        for i in 0..POSE {
+            p[(i, i)] = 1e-12;
+        }
+        if n == 13 {
+            for i in 7..10 {
+                p[(i, i)] = velocity_sigma * velocity_sigma;
+                p[(i + 3, i + 3)] = angular_velocity_sigma * angular_velocity_sigma;
+            }
+        }
+        Self {
+            camera,
+            motion,
+            x,
+            p,
+            slots: Vec::new(),
+            pixel_sigma,
+            next_id: 0,
+        }
+    }
+
+    /// State dimension.
+    pub fn dim(&self) -> usize {
+        self.x.len()
+    }
+
+    /// Camera position r.
+    pub fn position(&self) -> Vector3<f64> {
+        Vector3::new(self.x[0], self.x[1], self.x[2])
+    }
+
+    /// Camera orientation q (camera → world).
+    pub fn orientation(&self) -> Quat {
+        Quat::new(self.x[3], self.x[4], self.x[5], self.x[6])
+    }
+
+    /// Parameters of landmark `slot`.
+    pub fn landmark(&self, slot: usize) -> &[f64] {
+        let s = self.slots[slot];
+        &self.x.as_slice()[s.offset..s.offset + s.kind.dim()]
+    }
+
+    /// Euclidean position of landmark `slot` (None for an inverse-depth point at or past infinity).
+    pub fn landmark_point(&self, slot: usize) -> Option<Vector3<f64>> {
+        let y = self.landmark(slot);
+        match self.slots[slot].kind {
+            Parametrisation::Euclidean => Some(Vector3::new(y[0], y[1], y[2])),
+            Parametrisation::InverseDepth if y[5] > 1e-9 => Some(inverse_depth::to_euclidean(y).0),
+            Parametrisation::InverseDepth => None,
+        }
+    }
+
+    /// 3×3 covariance of landmark `slot`'s Euclidean position (first order for inverse depth).
+    pub fn landmark_covariance(&self, slot: usize) -> Option<nalgebra::Matrix3<f64>> {
+        let s = self.slots[slot];
+        match s.kind {
+            Parametrisation::Euclidean => {
+                Some(self.p.fixed_view::<3, 3>(s.offset, s.offset).into_owned())
+            }
+            Parametrisation::InverseDepth => {
+                let y = self.landmark(slot);
+                if y[5] <= 1e-9 {
+                    return None;
+                }
+                let (_, j) = inverse_depth::to_euclidean(y);
+                let block = self.p.fixed_view::<6, 6>(s.offset, s.offset);
+                Some(j * block * j.transpose())
+            }
+        }
+    }
+
+    /// Eqs 15–16: propagates the camera block through the motion model.
+    pub fn predict(&mut self, dt: f64, odometry: Option<&OdometryStep>) {
+        let c = self.motion.camera_dim();
+        let n = self.dim();
+        let camera = self.x.rows(0, c).into_owned();
+        let (next, f, q) = motion::predict(&self.motion, &camera, dt, odometry);
+        self.x.rows_mut(0, c).copy_from(&next);
+        let pcc = &f * self.p.view((0, 0), (c, c)) * f.transpose() + q;
+        self.p.view_mut((0, 0), (c, c)).copy_from(&symmetric(&pcc));
+        if n > c {
+            let pcy = &f * self.p.view((0, c), (c, n - c));
+            self.p.view_mut((0, c), (c, n - c)).copy_from(&pcy);
+            self.p
+                .view_mut((c, 0), (n - c, c))
+                .copy_from(&pcy.transpose());
+        }
+    }
+
+    /// Eqs 17–21 for landmark `slot` at the current state.
+    pub fn predict_observation(&self, slot: usize) -> Option<Prediction> {
+        let s = self.slots[slot];
+        inverse_depth::predict(
+            &self.camera,
+            s.kind,
+            self.landmark(slot),
+            &self.position(),
+            &self.orientation(),
+        )
+    }
+
+    /// P Hᵀ for one observation (n×2), from the pose columns and the landmark's columns only.
+    fn p_ht(
+        &self,
+        slot: usize,
+        prediction: &Prediction,
+    ) -> nalgebra::OMatrix<f64, nalgebra::Dyn, nalgebra::U2> {
+        let s = self.slots[slot];
+        let d = s.kind.dim();
+        let hp = prediction.d_pose;
+        let hl = prediction.d_landmark.columns(0, d).into_owned();
+        self.p.columns(0, POSE) * hp.transpose() + self.p.columns(s.offset, d) * hl.transpose()
+    }
+
+    /// Eq 27: S = H P Hᵀ + R for one landmark.
+    pub fn innovation_covariance(&self, slot: usize, prediction: &Prediction) -> Matrix2<f64> {
+        let s = self.slots[slot];
+        let d = s.kind.dim();
+        let hp = prediction.d_pose;
+        let hl = prediction.d_landmark.columns(0, d).into_owned();
+        let ppp = self.p.fixed_view::<7, 7>(0, 0);
+        let ppl = self.p.view((0, s.offset), (POSE, d));
+        let pll = self.p.view((s.offset, s.offset), (d, d));
+        let cross = hp * ppl * hl.transpose();
+        let s2 = hp * ppp * hp.transpose() + cross + cross.transpose() + &hl * pll * hl.transpose();
+        Matrix2::new(s2[(0, 0)], s2[(0, 1)], s2[(1, 0)], s2[(1, 1)])
+            + Matrix2::identity() * self.pixel_sigma * self.pixel_sigma
+    }
+
+    /// The state after updating with one observation alone, covariance untouched — the
+    /// hypothesis of 1-point RANSAC.
+    pub fn single_observation_state(&self, obs: &Observation) -> Option<DVector<f64>> {
+        let pht = self.p_ht(obs.slot, &obs.prediction);
+        let s = self.innovation_covariance(obs.slot, &obs.prediction);
+        let s_inv = s.try_inverse()?;
+        let nu = obs.pixel - obs.prediction.pixel;
+        Some(&self.x + pht * (s_inv * nu))
+    }
+
+    /// Eqs 22–24 with all `observations` stacked; the quaternion is renormalised afterwards.
+    pub fn update(&mut self, observations: &[Observation]) -> Result<(), UpdateError> {
+        if observations.is_empty() {
+            return Ok(());
+        }
+        let n = self.dim();
+        let m2 = 2 * observations.len();
+        let mut pht = DMatrix::<f64>::zeros(n, m2);
+        for (i, obs) in observations.iter().enumerate() {
+            pht.columns_mut(2 * i, 2)
+                .copy_from(&self.p_ht(obs.slot, &obs.prediction));
+        }
+        let mut s = DMatrix::<f64>::zeros(m2, m2);
+        let mut nu = DVector::<f64>::zeros(m2);
+        for (i, obs) in observations.iter().enumerate() {
+            let slot = self.slots[obs.slot];
+            let d = slot.kind.dim();
+            let hp = obs.prediction.d_pose;
+            let hl = obs.prediction.d_landmark.columns(0, d).into_owned();
+            let rows = hp * pht.rows(0, POSE) + hl * pht.rows(slot.offset, d);
+            s.rows_mut(2 * i, 2).copy_from(&rows);
+            nu.rows_mut(2 * i, 2)
+                .copy_from(&(obs.pixel - obs.prediction.pixel));
+        }
+        // Symmetrise S (rounding) and add R.
+        let s = (&s + s.transpose()) * 0.5
+            + DMatrix::<f64>::identity(m2, m2) * (self.pixel_sigma * self.pixel_sigma);
+        let chol = s.cholesky().ok_or(UpdateError::NotPositiveDefinite)?;
+        let l = chol.l();
+        let wt = l
+            .solve_lower_triangular(&pht.transpose())
+            .ok_or(UpdateError::NotPositiveDefinite)?;
+        let white = l
+            .solve_lower_triangular(&nu)
+            .ok_or(UpdateError::NotPositiveDefinite)?;
+        self.x += wt.transpose() * white;
+        let w = wt.transpose();
+        self.p.gemm(-1.0, &w, &wt, 1.0);
+        self.normalize_quaternion();
+        Ok(())
+    }
+
+    fn normalize_quaternion(&mut self) {
+        let q = self.orientation();
+        let j = rotation::d_normalize(&q);
+        self.x.fixed_rows_mut::<4>(3).copy_from(&q.normalize());
+        let rows = j * self.p.fixed_rows::<4>(3);
+        self.p.fixed_rows_mut::<4>(3).copy_from(&rows);
+        let cols = self.p.fixed_columns::<4>(3) * j.transpose();
+        self.p.fixed_columns_mut::<4>(3).copy_from(&cols);
+        // The 4×4 block went through J twice in two products; make it exactly symmetric.
+        let qq = self.p.view((3, 3), (4, 4)).into_owned();
+        self.p.view_mut((3, 3), (4, 4)).copy_from(&symmetric(&qq));
+        let n = self.dim();
+        let cross = self.p.view((3, 0), (4, n)).into_owned();
+        for k in (0..3).chain(7..n) {
+            for a in 0..4 {
+                self.p[(k, 3 + a)] = cross[(a, k)];
+            }
+        }
+    }
+
+    /// Adds inverse-depth landmarks seen at `pixels` from the current pose, with inverse-depth
+    /// prior ρ₀ ± σ_ρ; returns their ids. One reallocation for the whole batch.
+    pub fn add_landmarks(
+        &mut self,
+        pixels: &[Vector2<f64>],
+        rho0: f64,
+        rho_sigma: f64,
+    ) -> Vec<u64> {
+        if pixels.is_empty() {
+            return Vec::new();
+        }
+        let n = self.dim();
+        let k = pixels.len();
+        let n_new = n + 6 * k;
+        let r = self.position();
+        let q = self.orientation();
+        let r_pix = Matrix2::identity() * self.pixel_sigma * self.pixel_sigma;
+        let mut x = DVector::zeros(n_new);
+        x.rows_mut(0, n).copy_from(&self.x);
+        let mut p = DMatrix::zeros(n_new, n_new);
+        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
+        let pose_rows = self.p.rows(0, POSE).into_owned(); // 7×n
+        let ppp = self.p.fixed_view::<7, 7>(0, 0).into_owned();
+        let mut jacobians: Vec<SMatrix<f64, 6, 7>> = Vec::with_capacity(k);
+        let mut ids = Vec::with_capacity(k);
+        for (i, z) in pixels.iter().enumerate() {
+            let (y, jp, jz) = inverse_depth::initialise(&self.camera, *z, &r, &q, rho0);
+            let off = n + 6 * i;
+            x.rows_mut(off, 6).copy_from_slice(&y);
+            let cross = jp * &pose_rows; // 6×n
+            p.view_mut((off, 0), (6, n)).copy_from(&cross);
+            p.view_mut((0, off), (n, 6)).copy_from(&cross.transpose());
+            let mut pyy = jp * ppp * jp.transpose() + jz * r_pix * jz.transpose();
+            pyy[(5, 5)] += rho_sigma * rho_sigma;
+            p.view_mut((off, off), (6, 6)).copy_from(&symmetric(&pyy));
+            // Landmarks added together are correlated through the shared pose.
+            for (j, jp_other) in jacobians.iter().enumerate() {
+                let block = jp * ppp * jp_other.transpose();
+                let off_j = n + 6 * j;
+                p.view_mut((off, off_j), (6, 6)).copy_from(&block);
+                p.view_mut((off_j, off), (6, 6))
+                    .copy_from(&block.transpose());
+            }
+            jacobians.push(jp);
+            self.slots.push(Slot {
+                id: self.next_id,
+                kind: Parametrisation::InverseDepth,
+                offset: off,
+            });
+            ids.push(self.next_id);
+            self.next_id += 1;
+        }
+        self.x = x;
+        self.p = p;
+        ids
+    }
+
+    /// Deletes the landmarks whose slot index is in `remove` (any order).
+    pub fn remove_landmarks(&mut self, remove: &[usize]) {
+        if remove.is_empty() {
+            return;
+        }
+        let c = self.motion.camera_dim();
+        let mut keep: Vec<usize> = (0..c).collect();
+        let mut slots = Vec::with_capacity(self.slots.len());
+        let mut offset = c;
+        for (i, s) in self.slots.iter().enumerate() {
+            if remove.contains(&i) {
+                continue;
+            }
+            keep.extend(s.offset..s.offset + s.kind.dim());
+            slots.push(Slot { offset, ..*s });
+            offset += s.kind.dim();
+        }
+        self.x = self.x.select_rows(&keep);
+        self.p = self.p.select_rows(&keep).select_columns(&keep);
+        self.slots = slots;
+    }
+
+    /// Replaces inverse-depth landmark `slot` by its Euclidean point (3 entries instead of 6).
+    pub fn convert_to_euclidean(&mut self, slot: usize) {
+        let s = self.slots[slot];
+        if s.kind != Parametrisation::InverseDepth || self.landmark(slot)[5] <= 0.0 {
+            return;
+        }
+        let (point, j) = inverse_depth::to_euclidean(self.landmark(slot));
+        let n = self.dim();
+        let off = s.offset;
+        let rows = j * self.p.rows(off, 6); // 3×n
+        let pxx = rows.columns(off, 6) * j.transpose();
+        // Old indices other than the 6-block, in order; the new block takes `off..off+3`.
+        let map = |old: usize| if old < off { old } else { old - 3 };
+        let others: Vec<usize> = (0..n).filter(|&i| i < off || i >= off + 6).collect();
+        let mut p = DMatrix::zeros(n - 3, n - 3);
+        for &cj in &others {
+            let nj = map(cj);
+            for &ci in &others {
+                p[(map(ci), nj)] = self.p[(ci, cj)];
+            }
+            for a in 0..3 {
+                p[(off + a, nj)] = rows[(a, cj)];
+                p[(nj, off + a)] = rows[(a, cj)];
+            }
+        }
+        p.view_mut((off, off), (3, 3)).copy_from(&symmetric(&pxx));
+        let mut x = DVector::zeros(n - 3);
+        for &ci in &others {
+            x[map(ci)] = self.x[ci];
+        }
+        x.rows_mut(off, 3).copy_from(&point);
+        self.x = x;
+        self.p = p;
+        self.slots[slot].kind = Parametrisation::Euclidean;
+        for later in &mut self.slots[slot + 1..] {
+            later.offset -= 3;
+        }
+    }
+
+    /// Variance of the inverse depth of landmark `slot` (0 for Euclidean landmarks).
+    pub fn rho_variance(&self, slot: usize) -> f64 {
+        let s = self.slots[slot];
+        match s.kind {
+            Parametrisation::InverseDepth => self.p[(s.offset + 5, s.offset + 5)],
+            Parametrisation::Euclidean => 0.0,
+        }
+    }
+
+    /// Marginal covariance of the camera position.
+    pub fn position_covariance(&self) -> nalgebra::Matrix3<f64> {
+        self.p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+}
+
+/// (A + Aᵀ)/2 for the small blocks computed as products J P Jᵀ, whose rounding differs
+/// between an entry and its mirror.
+fn symmetric<R: nalgebra::Dim, S: nalgebra::storage::Storage<f64, R, R>>(
+    a: &nalgebra::Matrix<f64, R, R, S>,
+) -> DMatrix<f64> {
+    let a = DMatrix::from_iterator(a.nrows(), a.ncols(), a.iter().copied());
+    (&a + a.transpose()) * 0.5
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn filter_with_landmarks() -> Filter {
+        let cam = PinholeCamera::ideal(300.0, 300.0, 160.0, 120.0, 320, 240);
+        let mut f = Filter::new(cam, MotionModel::default(), 1.0, 0.1, 0.1);
+        f.predict(0.05, None);
+        f.add_landmarks(
+            &[
+                Vector2::new(50.0, 60.0),
+                Vector2::new(200.0, 100.0),
+                Vector2::new(120.0, 200.0),
+            ],
+            1.0,
+            1.0,
+        );
+        f.predict(0.05, None);
+        f
+    }
+
+    #[test]
+    fn update_matches_the_dense_textbook_form() {
+        let f0 = filter_with_landmarks();
+        let mut f = f0.clone();
+        let observations: Vec<Observation> = (0..3)
+            .map(|slot| {
+                let prediction = f.predict_observation(slot).unwrap();
+                Observation {
+                    slot,
+                    pixel: prediction.pixel + Vector2::new(1.5, -0.7 * slot as f64),
+                    prediction,
+                }
+            })
+            .collect();
+        f.update(&observations).unwrap();
+        // Dense eqs 22–24.
+        let n = f0.dim();
+        let mut h = DMatrix::zeros(6, n);
+        let mut nu = DVector::zeros(6);
+        for (i, obs) in observations.iter().enumerate() {
+            h.view_mut((2 * i, 0), (2, 7))
+                .copy_from(&obs.prediction.d_pose);
+            let off = f0.slots[obs.slot].offset;
+            h.view_mut((2 * i, off), (2, 6))
+                .copy_from(&obs.prediction.d_landmark);
+            nu.rows_mut(2 * i, 2)
+                .copy_from(&(obs.pixel - obs.prediction.pixel));
+        }
+        let s = &h * &f0.p * h.transpose() + DMatrix::identity(6, 6);
+        let k = &f0.p * h.transpose() * s.try_inverse().unwrap();
+        let mut x = &f0.x + &k * nu;
+        let mut p = (DMatrix::identity(n, n) - &k * &h) * &f0.p;
+        let q = Quat::new(x[3], x[4], x[5], x[6]);
+        let jn = rotation::d_normalize(&q);
+        x.fixed_rows_mut::<4>(3).copy_from(&q.normalize());
+        let rows = jn * p.fixed_rows::<4>(3);
+        p.fixed_rows_mut::<4>(3).copy_from(&rows);
+        let cols = p.fixed_columns::<4>(3) * jn.transpose();
+        p.fixed_columns_mut::<4>(3).copy_from(&cols);
+        assert!((&f.x - &x).amax() < 1e-9);
+        assert!((&f.p - &p).amax() < 1e-9);
+        assert_eq!(
+            f.p,
+            f.p.transpose(),
+            "covariance must stay exactly symmetric"
+        );
+    }
+
+    #[test]
+    fn conversion_and_removal_keep_the_rest_of_the_state() {
+        let mut f = filter_with_landmarks();
+        let before = f.clone();
+        f.convert_to_euclidean(1);
+        assert_eq!(f.dim(), before.dim() - 3);
+        assert_eq!(f.slots[2].offset, before.slots[2].offset - 3);
+        assert_eq!(f.landmark(2), before.landmark(2));
+        let p_before = before.landmark_point(1).unwrap();
+        assert!((f.landmark_point(1).unwrap() - p_before).amax() < 1e-12);
+        assert!(
+            (f.landmark_covariance(1).unwrap() - before.landmark_covariance(1).unwrap()).amax()
+                < 1e-9
+        );
+        assert_eq!(f.p, f.p.transpose());
+        f.remove_landmarks(&[0]);
+        assert_eq!(f.slots.len(), 2);
+        assert_eq!(f.landmark(1), before.landmark(2));
+        let off = f.slots[1].offset;
+        let old = before.slots[2].offset;
+        assert_eq!(f.p[(off, off)], before.p[(old, old)]);
+    }
+
+    #[test]
+    fn new_landmark_reprojects_where_it_was_seen() {
+        let f = filter_with_landmarks();
+        let pred = f.predict_observation(1).unwrap();
+        // Seen at (200, 100) one prediction step ago with zero mean velocity.
+        assert!((pred.pixel - Vector2::new(200.0, 100.0)).amax() < 1e-6);
+        let s = f.innovation_covariance(1, &pred);
+        assert!(s[(0, 0)] > 1.0 && s[(1, 1)] > 1.0);
+    }
+}

@@ -1,0 +1,14 @@
+//! Monocular EKF SLAM with inverse-depth landmarks (paper sections 2.1 and 2.6, eqs 1–2 and
+//! 13–27), fed by steernav keypoints.
+//!
+//! - [`rotation`]: quaternion algebra and derivatives.
+//! - [`camera`]: pinhole + distortion (eq 20), the stereo pair (eqs 1–2), calibration files.
+//! - [`inverse_depth`]: landmarks (eq 13), the measurement model (eqs 17–21), conversion.
+//! - [`motion`]: constant-velocity and odometry motion models (eqs 15–16).
+//! - [`ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
+
+pub mod camera;
+pub mod ekf;
+pub mod inverse_depth;
+pub mod motion;
+pub mod rotation;
