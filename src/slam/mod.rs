@@ -7,8 +7,14 @@
 //! - [`motion`]: constant-velocity and odometry motion models (eqs 15–16).
 //! - [`ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
 
+pub mod association;
 pub mod camera;
+pub mod config;
 pub mod ekf;
 pub mod inverse_depth;
 pub mod motion;
 pub mod rotation;
+pub mod sequence;
+pub mod synthetic;
+pub mod tracker;
+pub mod trajectory;

@@ -1,0 +1,254 @@
+//! Image sequences for `steernav slam`: the TUM RGB-D layout (rgb.txt + rgb/ +
+//! groundtruth.txt), the EuRoC layout (cam0/data.csv + cam0/data/ + cam0/sensor.yaml), and a
+//! plain folder of frames sorted by name with timestamps from a frame rate.
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+/// One frame of a sequence.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SequenceFrame {
+    /// Seconds.
+    pub timestamp: f64,
+    /// Image file.
+    pub path: PathBuf,
+}
+
+/// An opened sequence.
+#[derive(Clone, Debug)]
+pub struct Sequence {
+    /// "tum", "euroc" or "folder".
+    pub layout: &'static str,
+    /// Frames whose file exists, in time order.
+    pub frames: Vec<SequenceFrame>,
+    /// Listed frames whose file is missing (skipped, reported).
+    pub missing: Vec<PathBuf>,
+    /// A ground-truth trajectory found beside the frames (TUM format).
+    pub ground_truth: Option<PathBuf>,
+    /// A calibration found beside the frames (EuRoC sensor.yaml).
+    pub calibration: Option<PathBuf>,
+}
+
+const IMAGE_EXTENSIONS: [&str; 7] = ["png", "jpg", "jpeg", "pgm", "ppm", "bmp", "tif"];
+
+/// Opens a sequence, recognising its layout; `fps` gives a plain folder its timestamps.
+pub fn open(dir: &Path, fps: f64) -> Result<Sequence> {
+    if !dir.is_dir() {
+        return Err(Error::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "not a directory"),
+        });
+    }
+    let first_existing = |names: &[&str]| names.iter().map(|n| dir.join(n)).find(|p| p.is_file());
+    let ground_truth = first_existing(&["groundtruth.txt", "groundtruth_tum.txt"]);
+    let mut sequence = if dir.join("rgb.txt").is_file() {
+        let list = dir.join("rgb.txt");
+        let frames = parse_list(&list, dir, |fields| {
+            let t: f64 = fields.first()?.parse().ok()?;
+            Some((t, fields.get(1)?.to_string()))
+        })?;
+        Sequence {
+            layout: "tum",
+            frames,
+            missing: Vec::new(),
+            ground_truth,
+            calibration: None,
+        }
+    } else if let Some(cam) = ["cam0", "mav0/cam0", "."]
+        .iter()
+        .map(|c| dir.join(c))
+        .find(|c| c.join("data.csv").is_file())
+    {
+        let list = cam.join("data.csv");
+        let data = cam.join("data");
+        let frames = parse_list(&list, &data, |fields| {
+            let ns: f64 = fields.first()?.parse().ok()?;
+            Some((ns * 1e-9, fields.get(1)?.to_string()))
+        })?;
+        Sequence {
+            layout: "euroc",
+            frames,
+            missing: Vec::new(),
+            ground_truth,
+            calibration: Some(cam.join("sensor.yaml")).filter(|p| p.is_file()),
+        }
+    } else {
+        if !(fps.is_finite() && fps > 0.0) {
+            return Err(Error::config("fps", fps, "must be finite and > 0"));
+        }
+        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+            .map_err(|source| Error::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.is_file()
+                    && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                        IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str())
+                    })
+            })
+            .collect();
+        files.sort();
+        Sequence {
+            layout: "folder",
+            frames: files
+                .into_iter()
+                .enumerate()
+                .map(|(i, path)| SequenceFrame {
+                    timestamp: i as f64 / fps,
+                    path,
+                })
+                .collect(),
+            missing: Vec::new(),
+            ground_truth,
+            calibration: None,
+        }
+    };
+    let (present, missing): (Vec<_>, Vec<_>) =
+        sequence.frames.drain(..).partition(|f| f.path.is_file());
+    sequence.frames = present;
+    sequence.missing = missing.into_iter().map(|f| f.path).collect();
+    if sequence.frames.is_empty() {
+        return Err(Error::Decode {
+            path: dir.to_path_buf(),
+            reason: format!(
+                "no frames found ({} layout{})",
+                sequence.layout,
+                if sequence.missing.is_empty() {
+                    String::new()
+                } else {
+                    format!(", {} listed files missing", sequence.missing.len())
+                }
+            ),
+        });
+    }
+    Ok(sequence)
+}
+
+/// Reads a frame list (comments with `#`, fields split by commas or spaces); timestamps must
+/// increase strictly.
+fn parse_list(
+    list: &Path,
+    base: &Path,
+    parse: impl Fn(&[&str]) -> Option<(f64, String)>,
+) -> Result<Vec<SequenceFrame>> {
+    let text = std::fs::read_to_string(list).map_err(|source| Error::Io {
+        path: list.to_path_buf(),
+        source,
+    })?;
+    let mut frames: Vec<SequenceFrame> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .collect();
+        let bad = |reason: String| Error::Decode {
+            path: list.to_path_buf(),
+            reason: format!("line {}: {reason}", i + 1),
+        };
+        let (t, name) = parse(&fields)
+            .ok_or_else(|| bad(format!("expected `timestamp filename`, got {line:?}")))?;
+        if !t.is_finite() {
+            return Err(bad(format!("timestamp {t} is not finite")));
+        }
+        if let Some(prev) = frames.last() {
+            if t <= prev.timestamp {
+                return Err(bad(format!(
+                    "timestamps out of order: {t} after {}",
+                    prev.timestamp
+                )));
+            }
+        }
+        frames.push(SequenceFrame {
+            timestamp: t,
+            path: base.join(name),
+        });
+    }
+    Ok(frames)
+}
+
+/// Reads ground truth: a TUM file, or EuRoC's state_groundtruth_estimate0/data.csv
+/// (timestamp ns, position, quaternion w x y z, …).
+pub fn read_ground_truth(path: &Path) -> Result<Vec<super::trajectory::Pose>> {
+    if path.extension().is_some_and(|e| e == "csv") {
+        let frames_like = std::fs::read_to_string(path).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut poses = Vec::new();
+        for (i, line) in frames_like.lines().enumerate() {
+            let line = line.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let v: Vec<f64> = line
+                .split(',')
+                .map(|s| s.trim().parse::<f64>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|e| Error::Decode {
+                    path: path.to_path_buf(),
+                    reason: format!("line {}: {e}", i + 1),
+                })?;
+            if v.len() < 8 {
+                return Err(Error::Decode {
+                    path: path.to_path_buf(),
+                    reason: format!("line {}: expected at least 8 values", i + 1),
+                });
+            }
+            poses.push(super::trajectory::Pose {
+                timestamp: v[0] * 1e-9,
+                position: nalgebra::Vector3::new(v[1], v[2], v[3]),
+                orientation: nalgebra::Vector4::new(v[4], v[5], v[6], v[7]).normalize(),
+            });
+        }
+        return Ok(poses);
+    }
+    super::trajectory::read_tum(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tum_layout_reports_missing_frames_and_refuses_disorder() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("rgb")).unwrap();
+        std::fs::write(dir.path().join("rgb/a.png"), b"x").unwrap();
+        std::fs::write(
+            dir.path().join("rgb.txt"),
+            "# header\n1.0 rgb/a.png\n1.1 rgb/b.png\n",
+        )
+        .unwrap();
+        let seq = open(dir.path(), 30.0).unwrap();
+        assert_eq!(seq.layout, "tum");
+        assert_eq!(seq.frames.len(), 1);
+        assert_eq!(seq.missing.len(), 1);
+        std::fs::write(dir.path().join("rgb.txt"), "1.0 rgb/a.png\n0.9 rgb/a.png\n").unwrap();
+        let message = open(dir.path(), 30.0).unwrap_err().to_string();
+        assert!(
+            message.contains("line 2") && message.contains("out of order"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn folder_layout_sorts_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["b.png", "a.png", "notes.txt"] {
+            std::fs::write(dir.path().join(name), b"x").unwrap();
+        }
+        let seq = open(dir.path(), 10.0).unwrap();
+        assert_eq!(seq.layout, "folder");
+        assert_eq!(seq.frames.len(), 2);
+        assert!(seq.frames[0].path.ends_with("a.png"));
+        assert!((seq.frames[1].timestamp - 0.1).abs() < 1e-12);
+        assert!(open(&dir.path().join("none"), 10.0).is_err());
+    }
+}

@@ -1,0 +1,289 @@
+//! Trajectories: TUM files (`t tx ty tz qx qy qz qw`) in and out, timestamp association, and
+//! the evaluation of a monocular estimate against ground truth — absolute trajectory error
+//! after Sim(3) alignment (Umeyama, 1991: a monocular trajectory has no scale) and relative
+//! pose error over one-second intervals.
+
+use std::io::{BufRead, Write};
+use std::path::Path;
+
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+use super::rotation::{self, Quat};
+use crate::error::{Error, Result};
+
+/// A timestamped camera pose (camera → world).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Seconds.
+    pub timestamp: f64,
+    /// Camera centre in the world.
+    pub position: Vector3<f64>,
+    /// Orientation (w, x, y, z), camera → world.
+    pub orientation: Quat,
+}
+
+/// One TUM line for a pose.
+pub fn tum_line(pose: &Pose) -> String {
+    let (p, q) = (pose.position, pose.orientation);
+    format!(
+        "{:.6} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
+        pose.timestamp, p.x, p.y, p.z, q[1], q[2], q[3], q[0]
+    )
+}
+
+/// Writes poses as a TUM trajectory file.
+pub fn write_tum(path: &Path, poses: &[Pose]) -> Result<()> {
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(out, "# timestamp tx ty tz qx qy qz qw").map_err(io)?;
+    for pose in poses {
+        writeln!(out, "{}", tum_line(pose)).map_err(io)?;
+    }
+    out.flush().map_err(io)
+}
+
+/// Reads a TUM trajectory (comments with `#`, blank lines ignored, timestamps increasing).
+pub fn read_tum(path: &Path) -> Result<Vec<Pose>> {
+    let file = std::fs::File::open(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut poses: Vec<Pose> = Vec::new();
+    for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
+        let line = line.map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let bad = |reason: String| Error::Decode {
+            path: path.to_path_buf(),
+            reason: format!("line {}: {reason}", i + 1),
+        };
+        let text = line.trim();
+        if text.is_empty() || text.starts_with('#') {
+            continue;
+        }
+        let values: Vec<f64> = text
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .map(|s| s.parse::<f64>().map_err(|e| bad(format!("{s:?}: {e}"))))
+            .collect::<Result<_>>()?;
+        if values.len() != 8 {
+            return Err(bad(format!(
+                "expected 8 values (t tx ty tz qx qy qz qw), got {}",
+                values.len()
+            )));
+        }
+        if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+            return Err(bad(format!("non-finite value {v}")));
+        }
+        let q = Quat::new(values[7], values[4], values[5], values[6]);
+        if q.norm() < 1e-6 {
+            return Err(bad("zero quaternion".into()));
+        }
+        if let Some(prev) = poses.last() {
+            if values[0] <= prev.timestamp {
+                return Err(bad(format!(
+                    "timestamp {} is not after the previous one ({})",
+                    values[0], prev.timestamp
+                )));
+            }
+        }
+        poses.push(Pose {
+            timestamp: values[0],
+            position: Vector3::new(values[1], values[2], values[3]),
+            orientation: q.normalize(),
+        });
+    }
+    Ok(poses)
+}
+
+/// Pairs each estimated pose with the ground-truth pose nearest in time, within `max_dt`.
+pub fn associate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Vec<(Pose, Pose)> {
+    let mut pairs = Vec::new();
+    for e in estimate {
+        let i = truth.partition_point(|g| g.timestamp < e.timestamp);
+        let nearest = [i.checked_sub(1), Some(i)]
+            .into_iter()
+            .flatten()
+            .filter(|&j| j < truth.len())
+            .min_by(|&a, &b| {
+                (truth[a].timestamp - e.timestamp)
+                    .abs()
+                    .total_cmp(&(truth[b].timestamp - e.timestamp).abs())
+            });
+        if let Some(j) = nearest {
+            if (truth[j].timestamp - e.timestamp).abs() <= max_dt {
+                pairs.push((*e, truth[j]));
+            }
+        }
+    }
+    pairs
+}
+
+/// Similarity (s, R, t) minimising Σ |dst − (s R src + t)|² (Umeyama, 1991).
+pub fn umeyama(
+    src: &[Vector3<f64>],
+    dst: &[Vector3<f64>],
+    with_scale: bool,
+) -> (f64, Matrix3<f64>, Vector3<f64>) {
+    let n = src.len() as f64;
+    let mu_s = src.iter().sum::<Vector3<f64>>() / n;
+    let mu_d = dst.iter().sum::<Vector3<f64>>() / n;
+    let mut cov = Matrix3::zeros();
+    let mut var_s = 0.0;
+    for (s, d) in src.iter().zip(dst) {
+        cov += (d - mu_d) * (s - mu_s).transpose();
+        var_s += (s - mu_s).norm_squared();
+    }
+    cov /= n;
+    var_s /= n;
+    let svd = cov.svd(true, true);
+    let (u, v_t) = (svd.u.unwrap(), svd.v_t.unwrap());
+    let mut sign = Matrix3::identity();
+    if (u.determinant() * v_t.determinant()) < 0.0 {
+        sign[(2, 2)] = -1.0;
+    }
+    let r = u * sign * v_t;
+    let s = if with_scale && var_s > 0.0 {
+        (svd.singular_values.component_mul(&sign.diagonal())).sum() / var_s
+    } else {
+        1.0
+    };
+    let t = mu_d - s * r * mu_s;
+    (s, r, t)
+}
+
+/// The figures of `steernav slam-eval`.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrajectoryError {
+    /// RMSE of the positions after Sim(3) alignment, metres.
+    pub ate_rmse: f64,
+    /// RMSE of the translation of relative motions over about one second, metres (estimate scaled).
+    pub rpe_trans: f64,
+    /// The alignment's scale factor.
+    pub scale: f64,
+    /// Ground-truth path length over the matched poses, metres.
+    pub path_length: f64,
+    /// Number of matched poses.
+    pub matched: usize,
+}
+
+/// ATE and RPE of `estimate` against `truth`, timestamps matched within `max_dt` seconds.
+pub fn evaluate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Result<TrajectoryError> {
+    let pairs = associate(estimate, truth, max_dt);
+    if pairs.len() < 3 {
+        return Err(Error::config(
+            "trajectories",
+            pairs.len(),
+            format!("need at least 3 poses whose timestamps match within {max_dt} s"),
+        ));
+    }
+    let src: Vec<_> = pairs.iter().map(|(e, _)| e.position).collect();
+    let dst: Vec<_> = pairs.iter().map(|(_, g)| g.position).collect();
+    let (s, r, t) = umeyama(&src, &dst, true);
+    let ate = (src
+        .iter()
+        .zip(&dst)
+        .map(|(e, g)| (s * r * e + t - g).norm_squared())
+        .sum::<f64>()
+        / pairs.len() as f64)
+        .sqrt();
+    let mut rpe = Vec::new();
+    for i in 0..pairs.len() {
+        let target = pairs[i].0.timestamp + 1.0;
+        let j = pairs.partition_point(|p| p.0.timestamp < target);
+        if j >= pairs.len() {
+            break;
+        }
+        let rel = |a: &Pose, b: &Pose, scale: f64| {
+            let ra = rotation::matrix(&a.orientation);
+            let rb = rotation::matrix(&b.orientation);
+            (
+                ra.transpose() * rb,
+                ra.transpose() * (b.position - a.position) * scale,
+            )
+        };
+        let (re, te) = rel(&pairs[i].0, &pairs[j].0, s);
+        let (rg, tg) = rel(&pairs[i].1, &pairs[j].1, 1.0);
+        // E = G⁻¹ Ê: translation part Rgᵀ (tê − tg).
+        let _ = re;
+        rpe.push((rg.transpose() * (te - tg)).norm_squared());
+    }
+    let rpe_trans = if rpe.is_empty() {
+        0.0
+    } else {
+        (rpe.iter().sum::<f64>() / rpe.len() as f64).sqrt()
+    };
+    let path_length = dst.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    Ok(TrajectoryError {
+        ate_rmse: ate,
+        rpe_trans,
+        scale: s,
+        path_length,
+        matched: pairs.len(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn poses(scale: f64, rot: &Matrix3<f64>, shift: Vector3<f64>) -> Vec<Pose> {
+        (0..50)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let p = Vector3::new(t.sin(), 0.3 * t, (0.5 * t).cos());
+                Pose {
+                    timestamp: t,
+                    position: scale * rot * p + shift,
+                    orientation: rotation::from_rotation_vector(&Vector3::new(0.0, 0.1 * t, 0.0)),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn similarity_transformed_copy_has_zero_error() {
+        let rot = rotation::matrix(&rotation::from_rotation_vector(&Vector3::new(
+            0.3, -0.5, 0.2,
+        )));
+        let truth = poses(1.0, &Matrix3::identity(), Vector3::zeros());
+        let mut estimate = poses(0.25, &rot, Vector3::new(1.0, 2.0, 3.0));
+        // Orientations rotate too, so the relative motions are the truth's scaled.
+        let q = rotation::from_matrix(&rot);
+        for e in &mut estimate {
+            e.orientation = rotation::multiply(&q, &e.orientation);
+        }
+        let err = evaluate(&estimate, &truth, 0.02).unwrap();
+        assert!(err.ate_rmse < 1e-9, "{err:?}");
+        assert!(err.rpe_trans < 1e-9, "{err:?}");
+        assert!((err.scale - 4.0).abs() < 1e-9);
+        assert_eq!(err.matched, 50);
+    }
+
+    #[test]
+    fn tum_round_trip_and_bad_lines() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.txt");
+        let truth = poses(1.0, &Matrix3::identity(), Vector3::zeros());
+        write_tum(&path, &truth).unwrap();
+        let back = read_tum(&path).unwrap();
+        assert_eq!(back.len(), truth.len());
+        assert!((back[7].position - truth[7].position).amax() < 1e-8);
+        std::fs::write(&path, "1.0 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n").unwrap();
+        let message = read_tum(&path).unwrap_err().to_string();
+        assert!(
+            message.contains("line 2") && message.contains("not after"),
+            "{message}"
+        );
+        std::fs::write(&path, "1.0 0 0 nan 0 0 0 1\n").unwrap();
+        assert!(read_tum(&path)
+            .unwrap_err()
+            .to_string()
+            .contains("non-finite"));
+    }
+}
