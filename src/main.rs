@@ -1,5 +1,7 @@
 //! The `steernav` command line: detect, batch, info.
 
+mod slam_cli;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -40,6 +42,13 @@ enum Command {
     /// Drive the neural field with every scan of a CARMEN log (FLASER lines, gzipped or not):
     /// fraction of scans whose chosen heading is free, and its deviation from the real motion.
     NavReplay(NavReplayCmd),
+    /// Monocular EKF SLAM with inverse-depth landmarks on an image sequence: TUM trajectory,
+    /// map with covariances, figures, and ATE when ground truth is present.
+    Slam(Box<slam_cli::SlamCmd>),
+    /// ATE after Sim(3) alignment and RPE of a TUM trajectory against ground truth.
+    SlamEval(slam_cli::SlamEvalCmd),
+    /// Render a synthetic sequence with exact ground truth (TUM RGB-D layout + calib.toml).
+    SlamSynth(slam_cli::SlamSynthCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
 }
@@ -290,6 +299,9 @@ fn main() -> ExitCode {
         Command::Bench(cmd) => bench(cmd),
         Command::NavReplay(cmd) => nav_replay(cmd),
         Command::Gist(cmd) => gist(cmd),
+        Command::Slam(cmd) => slam_cli::slam(*cmd),
+        Command::SlamEval(cmd) => slam_cli::slam_eval(cmd),
+        Command::SlamSynth(cmd) => slam_cli::slam_synth(cmd),
         Command::Info => info(),
     };
     match result {

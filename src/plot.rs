@@ -11,7 +11,7 @@ use crate::eval::sweep::{curve, detectors, Row};
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT.call_once(|| {
         let bytes: &'static [u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
         // The font is bundled and valid; a failure here would only lose the labels.

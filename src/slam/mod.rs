@@ -11,6 +11,7 @@ pub mod association;
 pub mod camera;
 pub mod config;
 pub mod ekf;
+pub mod figure;
 pub mod inverse_depth;
 pub mod motion;
 pub mod rotation;

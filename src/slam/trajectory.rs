@@ -124,6 +124,30 @@ pub fn associate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Vec<(Pose, P
     pairs
 }
 
+/// The pose at time `t`, linearly interpolated between the two samples around it (positions
+/// linearly, orientations by normalised linear interpolation); `None` outside the samples.
+pub fn interpolate(poses: &[Pose], t: f64) -> Option<Pose> {
+    let i = poses.partition_point(|p| p.timestamp < t);
+    if i < poses.len() && poses[i].timestamp == t {
+        return Some(poses[i]);
+    }
+    if i == 0 || i >= poses.len() {
+        return None;
+    }
+    let (a, b) = (&poses[i - 1], &poses[i]);
+    let f = (t - a.timestamp) / (b.timestamp - a.timestamp);
+    let qb = if a.orientation.dot(&b.orientation) < 0.0 {
+        -b.orientation
+    } else {
+        b.orientation
+    };
+    Some(Pose {
+        timestamp: t,
+        position: a.position + (b.position - a.position) * f,
+        orientation: (a.orientation * (1.0 - f) + qb * f).normalize(),
+    })
+}
+
 /// Similarity (s, R, t) minimising Σ |dst − (s R src + t)|² (Umeyama, 1991).
 pub fn umeyama(
     src: &[Vector3<f64>],

@@ -1,0 +1,382 @@
+//! The `slam`, `slam-eval` and `slam-synth` subcommands.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use steernav::slam::camera::PinholeCamera;
+use steernav::slam::config::SlamConfig;
+use steernav::slam::figure::{slam_figure, EstimatedPose};
+use steernav::slam::motion::{relative_motion, MotionModel};
+use steernav::slam::sequence;
+use steernav::slam::synthetic::{SyntheticConfig, SyntheticSequence};
+use steernav::slam::tracker::{FrameReport, Slam};
+use steernav::slam::trajectory::{self, tum_line, Pose};
+use steernav::Frame;
+
+use super::{load_toml, DetectorArgs};
+
+#[derive(Args)]
+pub struct SlamCmd {
+    /// The sequence: a TUM RGB-D folder (rgb.txt + rgb/), a EuRoC folder (cam0/data.csv +
+    /// cam0/data/), or a plain folder of frames sorted by name (timestamps from --fps).
+    sequence: PathBuf,
+    /// Calibration: TOML with a [camera] table (fx, fy, cx, cy, width, height, optional k1,
+    /// k2, p1, p2, k3) or a EuRoC sensor.yaml. Defaults to the sequence's own sensor.yaml.
+    #[arg(long, value_name = "FILE")]
+    calib: Option<PathBuf>,
+    /// Wheel odometry as a TUM trajectory of the camera; switches to the odometry motion
+    /// model (u_k of eq 15 = relative motion between frames, interpolated at frame times).
+    #[arg(long, value_name = "FILE")]
+    odometry: Option<PathBuf>,
+    /// Estimated trajectory, TUM format (t tx ty tz qx qy qz qw), written frame by frame.
+    #[arg(long, value_name = "FILE", default_value = "traj.txt")]
+    out: PathBuf,
+    /// Final map: landmarks with 3×3 covariances as JSON (.json) or points as PLY (.ply).
+    #[arg(long, value_name = "FILE")]
+    map: Option<PathBuf>,
+    /// PNG figure: trajectory with covariance ellipses and the map (Fig. 4c–f).
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// Per-frame CSV: counts (predicted, matched, inliers, …) and timings.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
+    /// Frame rate giving timestamps to a plain folder of frames.
+    #[arg(long, default_value_t = 30.0)]
+    fps: f64,
+    /// Process at most this many frames.
+    #[arg(long, value_name = "N")]
+    max_frames: Option<usize>,
+    /// TOML file with a [slam] table (every key of SlamConfig optional; see README).
+    #[arg(long = "slam-config", value_name = "FILE")]
+    slam_config: Option<PathBuf>,
+    /// Ground truth to evaluate against at the end (TUM, or EuRoC data.csv); defaults to
+    /// groundtruth.txt / groundtruth_tum.txt beside the frames.
+    #[arg(long, value_name = "FILE")]
+    ground_truth: Option<PathBuf>,
+    #[command(flatten)]
+    detector: DetectorArgs,
+}
+
+#[derive(serde::Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+struct SlamFile {
+    slam: SlamConfig,
+}
+
+#[derive(Args)]
+pub struct SlamEvalCmd {
+    /// Estimated trajectory (TUM format).
+    estimate: PathBuf,
+    /// Ground truth (TUM format, or EuRoC state_groundtruth_estimate0/data.csv).
+    ground_truth: PathBuf,
+    /// Largest timestamp difference of a matched pair, seconds.
+    #[arg(long, default_value_t = 0.02)]
+    max_dt: f64,
+    /// Print {"ate_rmse", "rpe_trans", "scale", "path_length", "matched"} as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+pub struct SlamSynthCmd {
+    /// Output folder (TUM RGB-D layout: rgb/, rgb.txt, groundtruth.txt, calib.toml).
+    out: PathBuf,
+    /// Number of frames.
+    #[arg(long, default_value_t = 240)]
+    frames: usize,
+    /// TOML file with the keys of SyntheticConfig (width, height, fov_deg, k1, fps, room,
+    /// amplitude, texels_per_metre, seed); --frames overrides.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+}
+
+fn progress(len: usize, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  ETA {{eta}}  {{msg}}"
+        ))
+        .expect("valid template"),
+    );
+    bar
+}
+
+pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
+    let seq = sequence::open(&cmd.sequence, cmd.fps)?;
+    let calib_path = cmd
+        .calib
+        .clone()
+        .or_else(|| seq.calibration.clone())
+        .with_context(|| {
+            format!(
+                "{}: no calibration; pass --calib CALIB.toml",
+                cmd.sequence.display()
+            )
+        })?;
+    let camera = PinholeCamera::load(&calib_path)?;
+    let mut config = load_toml::<SlamFile>(cmd.slam_config.as_deref())?.slam;
+    let odometry = match &cmd.odometry {
+        Some(path) => {
+            if matches!(config.motion, MotionModel::ConstantVelocity { .. }) {
+                config.motion = MotionModel::odometry();
+            }
+            Some(trajectory::read_tum(path)?)
+        }
+        None => None,
+    };
+    let detector = cmd.detector.detector()?;
+    let mut slam = Slam::new(camera.clone(), config)?;
+    for path in &seq.missing {
+        eprintln!("warning: {}: listed but missing; skipped", path.display());
+    }
+    let frames = &seq.frames[..seq.frames.len().min(cmd.max_frames.unwrap_or(usize::MAX))];
+    let out_err = |p: &Path| format!("{}: cannot write", p.display());
+    let mut traj = std::io::BufWriter::new(
+        std::fs::File::create(&cmd.out).with_context(|| out_err(&cmd.out))?,
+    );
+    writeln!(traj, "# timestamp tx ty tz qx qy qz qw").with_context(|| out_err(&cmd.out))?;
+    let mut report = match &cmd.report {
+        Some(path) => {
+            let mut f = std::io::BufWriter::new(
+                std::fs::File::create(path).with_context(|| out_err(path))?,
+            );
+            writeln!(f, "timestamp,predicted,matched,descriptor_rejected,inliers,rescued,created,deleted,converted,landmarks,state_dim,lost,reinitialised,detection_ms,association_ms,filter_ms,total_ms")
+                .with_context(|| out_err(path))?;
+            Some((path.clone(), f))
+        }
+        None => None,
+    };
+    let bar = progress(frames.len(), "frames");
+    let mut estimated: Vec<EstimatedPose> = Vec::new();
+    let mut reports: Vec<FrameReport> = Vec::new();
+    let mut skipped = 0usize;
+    let mut previous_odometry: Option<Pose> = None;
+    for item in frames {
+        bar.inc(1);
+        let frame = match Frame::load(&item.path) {
+            Ok(f) => f,
+            Err(e) => {
+                bar.suspend(|| eprintln!("warning: {e}; frame skipped"));
+                skipped += 1;
+                continue;
+            }
+        };
+        let step = match &odometry {
+            Some(odo) => {
+                let Some(now) = trajectory::interpolate(odo, item.timestamp) else {
+                    bar.suspend(|| {
+                        eprintln!(
+                            "warning: no odometry at t={}; frame skipped",
+                            item.timestamp
+                        )
+                    });
+                    skipped += 1;
+                    continue;
+                };
+                let step = previous_odometry.map(|prev| {
+                    relative_motion(
+                        &prev.position,
+                        &prev.orientation,
+                        &now.position,
+                        &now.orientation,
+                    )
+                });
+                previous_odometry = Some(now);
+                step
+            }
+            None => None,
+        };
+        let r = match slam.process(&frame, item.timestamp, step.as_ref(), &detector) {
+            Ok(r) => r,
+            Err(e) => {
+                bar.suspend(|| eprintln!("warning: {}: {e}; frame skipped", item.path.display()));
+                skipped += 1;
+                continue;
+            }
+        };
+        let pose = Pose {
+            timestamp: r.timestamp,
+            position: r.position.into(),
+            orientation: nalgebra::Vector4::from(r.orientation),
+        };
+        writeln!(traj, "{}", tum_line(&pose)).with_context(|| out_err(&cmd.out))?;
+        traj.flush().with_context(|| out_err(&cmd.out))?;
+        if let Some((path, f)) = &mut report {
+            let t = &r.timings;
+            writeln!(
+                f,
+                "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
+                r.timestamp,
+                r.predicted,
+                r.matched,
+                r.descriptor_rejected,
+                r.inliers,
+                r.rescued,
+                r.created,
+                r.deleted,
+                r.converted,
+                r.landmarks,
+                r.state_dim,
+                r.lost,
+                r.reinitialised,
+                t.detection_ms,
+                t.association_ms,
+                t.filter_ms,
+                t.total_ms
+            )
+            .with_context(|| out_err(path))?;
+        }
+        if r.lost {
+            bar.set_message("tracking lost");
+        } else {
+            bar.set_message(format!("{} landmarks", r.landmarks));
+        }
+        estimated.push(EstimatedPose {
+            pose,
+            covariance: r.position_covariance,
+        });
+        reports.push(r);
+    }
+    bar.finish_and_clear();
+    if let Some((path, mut f)) = report {
+        f.flush().with_context(|| out_err(&path))?;
+    }
+    let map = slam.map();
+    if let Some(path) = &cmd.map {
+        write_map(path, &map)?;
+    }
+    let n = reports.len().max(1) as f64;
+    let mean = |f: fn(&FrameReport) -> f64| reports.iter().map(f).sum::<f64>() / n;
+    let lost = reports.iter().filter(|r| r.lost).count();
+    let restarts = reports.iter().filter(|r| r.reinitialised).count();
+    println!(
+        "{}: {} frames ({} layout), {} skipped, {} missing; tracking lost on {} frames, map restarted {} times",
+        cmd.sequence.display(),
+        reports.len(),
+        seq.layout,
+        skipped,
+        seq.missing.len(),
+        lost,
+        restarts
+    );
+    println!(
+        "per frame: detection {:.2} ms, association {:.2} ms, filter {:.2} ms, total {:.2} ms ({:.0} frames/s); {} landmarks at the end",
+        mean(|r| r.timings.detection_ms),
+        mean(|r| r.timings.association_ms),
+        mean(|r| r.timings.filter_ms),
+        mean(|r| r.timings.total_ms),
+        1e3 / mean(|r| r.timings.total_ms).max(1e-9),
+        map.len()
+    );
+    println!("trajectory: {}", cmd.out.display());
+    let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
+    let truth = match &truth_path {
+        Some(p) => Some(sequence::read_ground_truth(p)?),
+        None => None,
+    };
+    let estimate: Vec<Pose> = estimated.iter().map(|e| e.pose).collect();
+    let mut aligned_truth = None;
+    if let (Some(truth), Some(path)) = (&truth, &truth_path) {
+        match trajectory::evaluate(&estimate, truth, 0.02) {
+            Ok(e) => {
+                println!(
+                    "against {}: ATE {:.4} m RMSE ({:.2}% of the {:.2} m path), RPE {:.4} m over 1 s, scale {:.4}, {} poses matched",
+                    path.display(),
+                    e.ate_rmse,
+                    100.0 * e.ate_rmse / e.path_length.max(1e-12),
+                    e.path_length,
+                    e.rpe_trans,
+                    e.scale,
+                    e.matched
+                );
+                aligned_truth = Some(truth_in_estimate_frame(&estimate, truth));
+            }
+            Err(e) => eprintln!("warning: cannot evaluate against {}: {e}", path.display()),
+        }
+    }
+    if let Some(path) = &cmd.plot {
+        slam_figure(path, &estimated, aligned_truth.as_deref(), &map)?;
+        println!("figure: {}", path.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Ground truth mapped into the estimate's frame by the inverse of the Sim(3) alignment.
+fn truth_in_estimate_frame(estimate: &[Pose], truth: &[Pose]) -> Vec<Pose> {
+    let pairs = trajectory::associate(estimate, truth, 0.02);
+    let src: Vec<_> = pairs.iter().map(|(_, g)| g.position).collect();
+    let dst: Vec<_> = pairs.iter().map(|(e, _)| e.position).collect();
+    let (s, r, t) = trajectory::umeyama(&src, &dst, true);
+    pairs
+        .iter()
+        .map(|(_, g)| Pose {
+            position: s * r * g.position + t,
+            ..*g
+        })
+        .collect()
+}
+
+fn write_map(path: &Path, map: &[steernav::slam::tracker::MapPoint]) -> anyhow::Result<()> {
+    let text = if path.extension().is_some_and(|e| e == "ply") {
+        let mut s = format!(
+            "ply\nformat ascii 1.0\ncomment steernav map\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+            map.len()
+        );
+        for m in map {
+            s.push_str(&format!(
+                "{} {} {}\n",
+                m.position[0], m.position[1], m.position[2]
+            ));
+        }
+        s
+    } else {
+        serde_json::to_string_pretty(map)?
+    };
+    steernav::output::write_atomic(path, text.as_bytes())?;
+    println!("map: {} ({} landmarks)", path.display(), map.len());
+    Ok(())
+}
+
+pub fn slam_eval(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
+    if !(cmd.max_dt.is_finite() && cmd.max_dt > 0.0) {
+        bail!("--max-dt: {} must be finite and > 0", cmd.max_dt);
+    }
+    let estimate = trajectory::read_tum(&cmd.estimate)?;
+    let truth = sequence::read_ground_truth(&cmd.ground_truth)?;
+    let e = trajectory::evaluate(&estimate, &truth, cmd.max_dt)?;
+    if cmd.json {
+        println!("{}", serde_json::to_string(&e)?);
+    } else {
+        println!(
+            "ATE RMSE {:.4} m ({:.2}% of the {:.3} m path), RPE {:.4} m over 1 s, scale {:.4}, {} poses matched",
+            e.ate_rmse,
+            100.0 * e.ate_rmse / e.path_length.max(1e-12),
+            e.path_length,
+            e.rpe_trans,
+            e.scale,
+            e.matched
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn slam_synth(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
+    let mut config: SyntheticConfig = load_toml(cmd.config.as_deref())?;
+    config.frames = cmd.frames;
+    let seq = SyntheticSequence::new(config)?;
+    let bar = progress(seq.poses.len(), "frames");
+    seq.write_tum_layout(&cmd.out, |_| bar.inc(1))?;
+    bar.finish_and_clear();
+    println!(
+        "{}: {} frames, {:.2} m path; run `steernav slam {} --calib {}`",
+        cmd.out.display(),
+        seq.poses.len(),
+        seq.path_length(),
+        cmd.out.display(),
+        cmd.out.join("calib.toml").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
