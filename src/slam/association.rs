@@ -124,6 +124,17 @@ impl Template {
             .unwrap_or_else(Matrix2::identity);
         let side = 2 * half + 1;
         let mut out = Vec::with_capacity(side * side);
+        // Close to the first view, crop instead of resampling: bilinear resampling blurs the
+        // template and costs correlation on sharp edges.
+        if (inverse - Matrix2::identity()).amax() < 0.08 {
+            let side_in = 2 * self.radius + 1;
+            let start = self.radius - half;
+            for dy in 0..side {
+                let row = (start + dy) * side_in + start;
+                out.extend_from_slice(&self.patch[row..row + side]);
+            }
+            return out;
+        }
         for dy in 0..side {
             for dx in 0..side {
                 let d = Vector2::new(dx as f64 - half as f64, dy as f64 - half as f64);

@@ -46,6 +46,8 @@ pub struct SlamConfig {
     pub max_new_per_frame: usize,
     /// Cells of the grid (columns × rows) that spreads new landmarks over the image.
     pub grid: [usize; 2],
+    /// After a detection that created no landmark, frames to wait before detecting again.
+    pub redetect_interval: usize,
     /// Linearity index under which an inverse-depth landmark becomes Euclidean.
     pub linearity_threshold: f64,
     /// A landmark predicted visible this many times …
@@ -78,7 +80,8 @@ impl Default for SlamConfig {
             rescue_gate: 5.99,
             target_visible: 24,
             max_new_per_frame: 8,
-            grid: [5, 4],
+            grid: [8, 6],
+            redetect_interval: 10,
             linearity_threshold: 0.1,
             min_predicted_for_deletion: 10,
             min_match_ratio: 0.5,

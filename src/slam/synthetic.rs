@@ -33,10 +33,13 @@ pub struct SyntheticConfig {
     pub frames: usize,
     /// Frame rate, Hz.
     pub fps: f64,
-    /// Half-extent of the room (x, y, z), metres; the camera starts at its centre… offset.
+    /// Half-extent of the room (x, y, z), metres; the camera starts at its centre.
     pub room: [f64; 3],
     /// Amplitude of the sideways motion, metres.
     pub amplitude: f64,
+    /// Duration of one loop of the trajectory, seconds (independent of `frames`, so a short
+    /// sequence is the start of a long one).
+    pub period: f64,
     /// Texture resolution, texels per metre.
     pub texels_per_metre: f64,
     /// Seed of the wall textures.
@@ -54,6 +57,7 @@ impl Default for SyntheticConfig {
             fps: 30.0,
             room: [3.0, 1.5, 4.0],
             amplitude: 0.5,
+            period: 8.0,
             texels_per_metre: 160.0,
             seed: 7,
         }
@@ -79,6 +83,8 @@ impl SyntheticSequence {
         if config.frames == 0
             || config.fps.is_nan()
             || config.fps <= 0.0
+            || config.period.is_nan()
+            || config.period <= 0.0
             || !(config.fov_deg > 1.0 && config.fov_deg < 170.0)
         {
             return Err(Error::config(
@@ -87,7 +93,7 @@ impl SyntheticSequence {
                     "frames={} fps={} fov={}",
                     config.frames, config.fps, config.fov_deg
                 ),
-                "needs frames >= 1, fps > 0, fov in (1, 170) degrees",
+                "needs frames >= 1, fps > 0, period > 0, fov in (1, 170) degrees",
             ));
         }
         crate::image::check_size("synthetic", config.width, config.height)?;
@@ -114,7 +120,7 @@ impl SyntheticSequence {
                 };
                 let w = ((2.0 * a * config.texels_per_metre) as u32).clamp(16, 4096);
                 let h = ((2.0 * b * config.texels_per_metre) as u32).clamp(16, 4096);
-                crate::synth::textured_scene(w, h, config.seed.wrapping_mul(31).wrapping_add(i))
+                tiled_texture(w, h, config.seed.wrapping_mul(31).wrapping_add(i))
             })
             .collect();
         let rays = (0..config.width as usize * config.height as usize)
@@ -126,7 +132,7 @@ impl SyntheticSequence {
                 camera.back_project(z).0
             })
             .collect();
-        let period = config.frames as f64 / config.fps;
+        let period = config.period;
         let poses = (0..config.frames)
             .map(|k| {
                 let t = k as f64 / config.fps;
@@ -255,6 +261,34 @@ impl SyntheticSequence {
 #[derive(Serialize)]
 struct CalibrationOut {
     camera: PinholeCamera,
+}
+
+/// A wall texture made of independently seeded 256×256 scenes: the cost of
+/// [`crate::synth::textured_scene`] grows with the square of the area (more shapes, each tested
+/// at every pixel), while tiles keep it linear and never repeat a pattern.
+fn tiled_texture(width: u32, height: u32, seed: u64) -> Frame {
+    const TILE: u32 = 256;
+    let (tx, ty) = (width.div_ceil(TILE), height.div_ceil(TILE));
+    let tiles: Vec<Frame> = (0..tx * ty)
+        .into_par_iter()
+        .map(|i| {
+            crate::synth::textured_scene(
+                TILE,
+                TILE,
+                seed.wrapping_mul(1_000_003).wrapping_add(i as u64),
+            )
+        })
+        .collect();
+    let (w, h) = (width as usize, height as usize);
+    let mut rgb = vec![0u8; 3 * w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let tile = &tiles[(y / TILE as usize) * tx as usize + x / TILE as usize];
+            let o = 3 * ((y % TILE as usize) * TILE as usize + x % TILE as usize);
+            rgb[3 * (y * w + x)..3 * (y * w + x) + 3].copy_from_slice(&tile.rgb[o..o + 3]);
+        }
+    }
+    Frame::from_rgb(width, height, rgb).expect("texture sizes are small and positive")
 }
 
 fn bilinear_rgb(frame: &Frame, u: f64, v: f64) -> [u8; 3] {

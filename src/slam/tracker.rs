@@ -91,6 +91,8 @@ pub struct Slam {
     last_time: Option<f64>,
     lost_streak: usize,
     rng: Rng,
+    /// Frame index before which detection is skipped (the last one found no free cell).
+    detect_after: usize,
 }
 
 impl Slam {
@@ -113,6 +115,7 @@ impl Slam {
             last_time: None,
             lost_streak: 0,
             rng: Rng(0x5EED),
+            detect_after: 0,
         })
     }
 
@@ -288,7 +291,7 @@ impl Slam {
             deleted += self.filter.slots.len();
             let all: Vec<usize> = (0..self.filter.slots.len()).collect();
             self.remove(&all);
-            self.reset_velocity();
+            self.restart_at_current_pose();
             self.lost_streak = 0;
             reinitialised = true;
         }
@@ -397,22 +400,23 @@ impl Slam {
         });
     }
 
-    fn reset_velocity(&mut self) {
-        if self.filter.motion.camera_dim() != 13 {
-            return;
+    /// A restart begins a new map anchored at the current pose estimate, as at start-up: the
+    /// pose covariance goes back to (almost) zero — nothing in the new map can be tied to the
+    /// old one — and the velocity keeps its estimate (the camera rarely stops when tracking
+    /// fails) with the prior's uncertainty.
+    fn restart_at_current_pose(&mut self) {
+        let c = self.filter.motion.camera_dim();
+        let mut p = nalgebra::DMatrix::zeros(c, c);
+        for i in 0..super::ekf::POSE {
+            p[(i, i)] = 1e-12;
         }
-        let n = self.filter.dim();
-        for i in 7..13 {
-            self.filter.x[i] = 0.0;
-            for j in 0..n {
-                self.filter.p[(i, j)] = 0.0;
-                self.filter.p[(j, i)] = 0.0;
+        if c == 13 {
+            for i in 7..10 {
+                p[(i, i)] = self.config.velocity_sigma.powi(2);
+                p[(i + 3, i + 3)] = self.config.angular_velocity_sigma.powi(2);
             }
         }
-        for i in 7..10 {
-            self.filter.p[(i, i)] = self.config.velocity_sigma.powi(2);
-            self.filter.p[(i + 3, i + 3)] = self.config.angular_velocity_sigma.powi(2);
-        }
+        self.filter.p = p;
     }
 
     fn convert_linear_landmarks(&mut self) -> usize {
@@ -477,7 +481,7 @@ impl Slam {
             .map(|p| p.pixel)
             .filter(|z| cam.contains(z, 0.0))
             .collect();
-        if visible.len() >= self.config.target_visible {
+        if visible.len() >= self.config.target_visible || self.frame_index < self.detect_after {
             return Ok((0, 0.0, 0.0));
         }
         let t_detect = Instant::now();
@@ -500,7 +504,9 @@ impl Slam {
             if pixels.len() >= want {
                 break;
             }
-            let z = Vector2::new(kp.x as f64, kp.y as f64);
+            // Landmarks start at the keypoint's pixel centre, where the template is cut
+            // without resampling (the rounding is far inside the 1-pixel measurement noise).
+            let z = Vector2::new(kp.x.round() as f64, kp.y.round() as f64);
             if !cam.contains(&z, margin) {
                 continue;
             }
@@ -526,6 +532,9 @@ impl Slam {
                 matched: 0,
                 last_seen: self.frame_index,
             });
+        }
+        if pixels.is_empty() {
+            self.detect_after = self.frame_index + self.config.redetect_interval;
         }
         self.filter.add_landmarks(
             &pixels,

@@ -1,0 +1,258 @@
+//! Monocular EKF SLAM end to end on the generated room sequence: convergence with the
+//! constant-velocity and the odometry motion models, a consistent covariance, tracking lost
+//! and recovered on textureless frames, the GPU detector feeding the filter, and bad input.
+
+mod common;
+
+use nalgebra::{DMatrix, SymmetricEigen, Vector3, Vector4};
+use steernav::slam::camera::PinholeCamera;
+use steernav::slam::config::SlamConfig;
+use steernav::slam::motion::{relative_motion, MotionModel, OdometryStep};
+use steernav::slam::synthetic::{SyntheticConfig, SyntheticSequence};
+use steernav::slam::tracker::Slam;
+use steernav::slam::trajectory::{evaluate, Pose};
+use steernav::synth::Rng;
+use steernav::{Backend, Detector, DetectorConfig, Frame};
+
+fn cpu_detector() -> Detector {
+    Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap()
+}
+
+fn pose_of(r: &steernav::slam::tracker::FrameReport) -> Pose {
+    Pose {
+        timestamp: r.timestamp,
+        position: r.position.into(),
+        orientation: Vector4::from(r.orientation),
+    }
+}
+
+fn assert_covariance_is_consistent(p: &DMatrix<f64>) {
+    assert_eq!(p, &p.transpose(), "covariance must stay exactly symmetric");
+    let eig = SymmetricEigen::new(p.clone());
+    let min = eig.eigenvalues.min();
+    let max = eig.eigenvalues.max();
+    assert!(
+        min > -1e-9 * max,
+        "covariance not positive: eigenvalues in [{min}, {max}]"
+    );
+}
+
+#[test]
+fn constant_velocity_filter_converges_on_the_generated_sequence() {
+    let seq = SyntheticSequence::new(SyntheticConfig::default()).unwrap();
+    let detector = cpu_detector();
+    let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
+    let mut estimate = Vec::new();
+    let mut lost = 0;
+    for (k, truth) in seq.poses.iter().enumerate() {
+        let report = slam
+            .process(&seq.render(k), truth.timestamp, None, &detector)
+            .unwrap();
+        lost += usize::from(report.lost);
+        estimate.push(pose_of(&report));
+    }
+    let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
+    let length = seq.path_length();
+    eprintln!(
+        "ATE {:.4} m on a {length:.2} m path ({:.2}%), scale {:.3}",
+        error.ate_rmse,
+        100.0 * error.ate_rmse / length,
+        error.scale
+    );
+    assert_eq!(error.matched, seq.poses.len());
+    assert!(error.ate_rmse < 0.03 * length, "{error:?}");
+    assert_eq!(lost, 0, "tracking must not be lost on a textured room");
+    assert!(slam.map().len() >= 15);
+    assert_covariance_is_consistent(&slam.filter().p);
+}
+
+#[test]
+fn odometry_filter_recovers_metric_scale() {
+    let seq = SyntheticSequence::new(SyntheticConfig {
+        frames: 150,
+        ..Default::default()
+    })
+    .unwrap();
+    let detector = cpu_detector();
+    let config = SlamConfig {
+        motion: MotionModel::odometry(),
+        ..Default::default()
+    };
+    let mut slam = Slam::new(seq.camera.clone(), config).unwrap();
+    let mut rng = Rng(3);
+    let mut noise = |s: f64| {
+        Vector3::new(
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+            rng.range(-1.0, 1.0),
+        )
+        .cast::<f64>()
+            * s
+    };
+    let mut estimate = Vec::new();
+    for (k, truth) in seq.poses.iter().enumerate() {
+        // Wheel odometry: the true relative motion with 2% / 2 mm noise.
+        let step = (k > 0).then(|| {
+            let prev = &seq.poses[k - 1];
+            let exact = relative_motion(
+                &prev.position,
+                &prev.orientation,
+                &truth.position,
+                &truth.orientation,
+            );
+            OdometryStep {
+                translation: exact.translation + noise(0.02 * exact.translation.norm() + 0.002),
+                rotation: exact.rotation + noise(0.002),
+            }
+        });
+        let report = slam
+            .process(&seq.render(k), truth.timestamp, step.as_ref(), &detector)
+            .unwrap();
+        estimate.push(pose_of(&report));
+    }
+    let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
+    eprintln!("odometry: {error:?}");
+    assert!(
+        (error.scale - 1.0).abs() < 0.1,
+        "odometry fixes the scale: {error:?}"
+    );
+    assert!(error.ate_rmse < 0.03 * error.path_length, "{error:?}");
+    assert_covariance_is_consistent(&slam.filter().p);
+}
+
+#[test]
+fn textureless_frames_lose_tracking_which_is_reported_and_recovered() {
+    let seq = SyntheticSequence::new(SyntheticConfig {
+        frames: 120,
+        ..Default::default()
+    })
+    .unwrap();
+    let detector = cpu_detector();
+    let config = SlamConfig::default();
+    let lost_after = config.lost_after;
+    let mut slam = Slam::new(seq.camera.clone(), config).unwrap();
+    let (w, h) = (seq.camera.width, seq.camera.height);
+    let blank = Frame::from_gray(w, h, vec![0.5; (w * h) as usize]).unwrap();
+    let mut reports = Vec::new();
+    for (k, truth) in seq.poses.iter().enumerate() {
+        let frame = if (40..60).contains(&k) {
+            blank.clone()
+        } else {
+            seq.render(k)
+        };
+        reports.push(
+            slam.process(&frame, truth.timestamp, None, &detector)
+                .unwrap(),
+        );
+    }
+    assert!(reports[..40].iter().all(|r| !r.lost));
+    assert!(
+        reports[40..40 + lost_after].iter().all(|r| r.lost),
+        "blank frames must be reported lost"
+    );
+    assert!(
+        reports[40..60].iter().any(|r| r.reinitialised),
+        "the map must restart"
+    );
+    let tail = &reports[80..];
+    assert!(
+        tail.iter().all(|r| !r.lost),
+        "tracking must resume on textured frames"
+    );
+    let mean_inliers = tail.iter().map(|r| r.inliers).sum::<usize>() as f64 / tail.len() as f64;
+    assert!(
+        mean_inliers >= 8.0,
+        "{mean_inliers} inliers per frame after the restart"
+    );
+    assert!(reports
+        .iter()
+        .all(|r| r.position.iter().all(|v| v.is_finite())));
+}
+
+#[test]
+fn gpu_detector_feeds_the_filter() {
+    let Some(_ctx) = common::gpu() else { return };
+    let seq = SyntheticSequence::new(SyntheticConfig {
+        frames: 12,
+        ..Default::default()
+    })
+    .unwrap();
+    let detector = Detector::new(&DetectorConfig::default(), Backend::Gpu).unwrap();
+    let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
+    let mut last = None;
+    for (k, truth) in seq.poses.iter().enumerate() {
+        last = Some(
+            slam.process(&seq.render(k), truth.timestamp, None, &detector)
+                .unwrap(),
+        );
+    }
+    let last = last.unwrap();
+    assert!(last.inliers >= 10, "{last:?}");
+    assert!(!last.lost);
+}
+
+#[test]
+fn bad_input_gives_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let calib = dir.path().join("calib.toml");
+    std::fs::write(
+        &calib,
+        "[camera]\nfx = 0.0\nfy = 400\ncx = 160\ncy = 120\nwidth = 320\nheight = 240\n",
+    )
+    .unwrap();
+    let message = PinholeCamera::load(&calib).unwrap_err().to_string();
+    assert!(
+        message.contains("calib.toml") && message.contains("camera.fx"),
+        "{message}"
+    );
+    std::fs::write(&calib, "[camera]\nfx = 400\n").unwrap();
+    let message = PinholeCamera::load(&calib).unwrap_err().to_string();
+    assert!(
+        message.contains("calib.toml") && message.contains("fy"),
+        "{message}"
+    );
+    assert!(PinholeCamera::load(&dir.path().join("none.toml"))
+        .unwrap_err()
+        .to_string()
+        .contains("none.toml"));
+
+    let camera = PinholeCamera::ideal(200.0, 200.0, 79.5, 59.5, 160, 120);
+    let detector = cpu_detector();
+    let mut slam = Slam::new(camera, SlamConfig::default()).unwrap();
+    let frame = steernav::synth::textured_scene(160, 120, 1);
+    slam.process(&frame, 1.0, None, &detector).unwrap();
+    let message = slam
+        .process(&frame, 0.5, None, &detector)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("timestamp") && message.contains("increase"),
+        "{message}"
+    );
+    let message = slam
+        .process(&frame, f64::NAN, None, &detector)
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("timestamp"), "{message}");
+    let big = steernav::synth::textured_scene(320, 240, 1);
+    let message = slam
+        .process(&big, 2.0, None, &detector)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("320x240") && message.contains("160x120"),
+        "{message}"
+    );
+    let bad = SlamConfig {
+        pixel_sigma: f64::NAN,
+        ..Default::default()
+    };
+    let message = Slam::new(
+        PinholeCamera::ideal(200.0, 200.0, 79.5, 59.5, 160, 120),
+        bad,
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(message.contains("slam.pixel_sigma"), "{message}");
+}
