@@ -339,3 +339,105 @@ fn bench_prints_json_rows_with_the_documented_keys() {
         .unwrap();
     assert!(!bad.status.success());
 }
+
+#[test]
+fn slam_synth_slam_and_slam_eval_work_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = dir.path().join("room");
+    let out = steernav()
+        .args(["slam-synth", seq.to_str().unwrap(), "--frames", "30"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let traj = dir.path().join("traj.txt");
+    let map = dir.path().join("map.json");
+    let plot = dir.path().join("slam.png");
+    let out = steernav()
+        .args(["slam", seq.to_str().unwrap(), "--backend", "cpu", "--calib"])
+        .arg(seq.join("calib.toml"))
+        .arg("--out")
+        .arg(&traj)
+        .arg("--map")
+        .arg(&map)
+        .arg("--plot")
+        .arg(&plot)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("ATE"), "{stdout}");
+    let lines: Vec<String> = std::fs::read_to_string(&traj)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(String::from)
+        .collect();
+    assert_eq!(lines.len(), 30);
+    assert_eq!(
+        lines[0].split_whitespace().count(),
+        8,
+        "TUM: t tx ty tz qx qy qz qw"
+    );
+    let points: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&map).unwrap()).unwrap();
+    assert!(points.as_array().unwrap()[0]["covariance"].is_array());
+    assert!(image::open(&plot).is_ok());
+    let out = steernav()
+        .args(["slam-eval", "--json"])
+        .arg(&traj)
+        .arg(seq.join("groundtruth.txt"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["ate_rmse", "rpe_trans", "scale", "path_length", "matched"] {
+        assert!(v[key].is_number(), "missing {key}: {v}");
+    }
+    assert_eq!(v["matched"], 30);
+    // A calibration with zero focal length is refused, naming the field and the file.
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[camera]\nfx = 0\nfy = 100\ncx = 1\ncy = 1\nwidth = 320\nheight = 240\n",
+    )
+    .unwrap();
+    let out = steernav()
+        .args([
+            "slam",
+            seq.to_str().unwrap(),
+            "--calib",
+            bad.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("bad.toml") && err.contains("camera.fx"),
+        "{err}"
+    );
+    let out = steernav().args(["slam", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    for flag in [
+        "--calib",
+        "--odometry",
+        "--out",
+        "--map",
+        "--plot",
+        "--fps",
+        "--backend",
+    ] {
+        assert!(help.contains(flag), "slam --help lacks {flag}");
+    }
+}
