@@ -225,12 +225,20 @@ impl Filter {
         if observations.is_empty() {
             return Ok(());
         }
-        let n = self.dim();
         let m2 = 2 * observations.len();
-        let mut pht = DMatrix::<f64>::zeros(n, m2);
+        // P Hᵀ: the pose columns of every observation in one product, then each landmark's own.
+        let mut hp_t = DMatrix::<f64>::zeros(POSE, m2);
         for (i, obs) in observations.iter().enumerate() {
+            hp_t.columns_mut(2 * i, 2)
+                .copy_from(&obs.prediction.d_pose.transpose());
+        }
+        let mut pht = self.p.columns(0, POSE) * hp_t;
+        for (i, obs) in observations.iter().enumerate() {
+            let slot = self.slots[obs.slot];
+            let d = slot.kind.dim();
+            let hl_t = obs.prediction.d_landmark.columns(0, d).transpose();
             pht.columns_mut(2 * i, 2)
-                .copy_from(&self.p_ht(obs.slot, &obs.prediction));
+                .gemm(1.0, &self.p.columns(slot.offset, d), &hl_t, 1.0);
         }
         let mut s = DMatrix::<f64>::zeros(m2, m2);
         let mut nu = DVector::<f64>::zeros(m2);
@@ -248,18 +256,17 @@ impl Filter {
         let s = (&s + s.transpose()) * 0.5
             + DMatrix::<f64>::identity(m2, m2) * (self.pixel_sigma * self.pixel_sigma);
         let chol = s.cholesky().ok_or(UpdateError::NotPositiveDefinite)?;
-        let l = chol.l();
-        let wt = l
-            .solve_lower_triangular(&pht.transpose())
+        // L⁻¹ is only 2m×2m: inverting it once and multiplying is far faster than
+        // triangular solves with n right-hand sides.
+        let l_inv = chol
+            .l()
+            .solve_lower_triangular(&DMatrix::identity(m2, m2))
             .ok_or(UpdateError::NotPositiveDefinite)?;
-        let white = l
-            .solve_lower_triangular(&nu)
-            .ok_or(UpdateError::NotPositiveDefinite)?;
-        self.x += wt.transpose() * white;
-        let w = wt.transpose();
-        // One product for the whole O(n²·m) term. It streams P through memory once; splitting
-        // it over threads measured slower (the update is memory-bound at n ≥ 600).
-        self.p.gemm(-1.0, &w, &wt, 1.0);
+        let w = pht * l_inv.transpose();
+        let white = &l_inv * &nu;
+        self.x.gemv(1.0, &w, &white, 1.0);
+        let wt = w.transpose();
+        subtract_symmetric_product(&mut self.p, &w, &wt);
         self.normalize_quaternion();
         Ok(())
     }
@@ -414,6 +421,43 @@ impl Filter {
     /// Marginal covariance of the camera position.
     pub fn position_covariance(&self) -> nalgebra::Matrix3<f64> {
         self.p.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+}
+
+/// P ← P − W Wᵀ, the only O(n²·m) term of the update, on the lower triangle only (column
+/// panels of the lower part, one matrix product each), then mirrored: half the arithmetic of
+/// the full product, and P exactly symmetric by construction.
+fn subtract_symmetric_product(p: &mut DMatrix<f64>, w: &DMatrix<f64>, wt: &DMatrix<f64>) {
+    const PANEL: usize = 64;
+    const TILE: usize = 32;
+    let n = p.nrows();
+    for j0 in (0..n).step_by(PANEL) {
+        let b = PANEL.min(n - j0);
+        let mut panel = p.view_mut((j0, j0), (n - j0, b));
+        panel.gemm(-1.0, &w.rows(j0, n - j0), &wt.columns(j0, b), 1.0);
+    }
+    // Upper triangle ← lower, tile by tile: each source tile is read column by column
+    // (contiguous) into an L1 buffer, then written out transposed.
+    let data = p.as_mut_slice();
+    let mut buf = [0.0f64; TILE * TILE];
+    for jt in (0..n).step_by(TILE) {
+        let jw = TILE.min(n - jt);
+        for it in (0..=jt).step_by(TILE) {
+            let iw = TILE.min(n - it);
+            // Source: rows jt..jt+jw of columns it..it+iw (below the diagonal).
+            for (c, col) in buf.chunks_exact_mut(TILE).take(iw).enumerate() {
+                let start = (it + c) * n + jt;
+                col[..jw].copy_from_slice(&data[start..start + jw]);
+            }
+            for r in 0..jw {
+                let j = jt + r;
+                let rows = iw.min(j.saturating_sub(it));
+                let dest = &mut data[j * n + it..j * n + it + rows];
+                for (c, d) in dest.iter_mut().enumerate() {
+                    *d = buf[c * TILE + r];
+                }
+            }
+        }
     }
 }
 
