@@ -6,4 +6,5 @@ pub mod carmen;
 pub mod dnf;
 pub mod gist;
 pub mod replay;
+pub mod sim;
 pub mod stimulus;

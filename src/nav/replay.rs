@@ -144,10 +144,7 @@ pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
         let target = angle_diff((dy.atan2(dx) - scan.theta - offset) as f32, 0.0);
         // Beams as point obstacles, weighted by their angular density (see the module docs).
         let spacing = std::f32::consts::PI / (scan.ranges.len().max(2) - 1) as f32;
-        let beam_cfg = StimulusConfig {
-            c_o: cfg.stimulus.c_o * spacing * (cfg.stimulus.sigma / std::f32::consts::PI).sqrt(),
-            ..cfg.stimulus.clone()
-        };
+        let beam_cfg = cfg.stimulus.per_beam(spacing);
         let valid: Vec<(f32, f32)> = scan
             .ranges
             .iter()

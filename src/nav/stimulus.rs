@@ -80,6 +80,16 @@ impl StimulusConfig {
     pub fn g(&self, d: f32) -> f32 {
         (-d.max(0.0) / self.g_scale.max(1e-6)).exp()
     }
+
+    /// The configuration for a scan whose beams are `spacing` radians apart, each beam taken
+    /// as a point obstacle: c_o is weighted by the beams' angular density, so a wall inhibits
+    /// as much whatever the scanner's resolution.
+    pub fn per_beam(&self, spacing: f32) -> Self {
+        Self {
+            c_o: self.c_o * spacing * (self.sigma / std::f32::consts::PI).sqrt(),
+            ..self.clone()
+        }
+    }
 }
 
 /// a − b wrapped to [−π, π].

@@ -1,0 +1,7 @@
+//! The 2D navigation simulator (paper section 4.2): worlds, sensors, the learned GIST
+//! stimulus, and episodes driven by the dynamic neural field.
+
+pub mod episode;
+pub mod sensors;
+pub mod visual;
+pub mod world;
