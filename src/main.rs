@@ -1,5 +1,6 @@
 //! The `steernav` command line: detect, batch, info.
 
+mod nav_cli;
 mod slam_cli;
 
 use std::path::{Path, PathBuf};
@@ -49,6 +50,13 @@ enum Command {
     SlamEval(slam_cli::SlamEvalCmd),
     /// Render a synthetic sequence with exact ground truth (TUM RGB-D layout + calib.toml).
     SlamSynth(slam_cli::SlamSynthCmd),
+    /// One navigation episode in the 2D simulator (LIDAR alone or fused with the camera's
+    /// GIST), with a figure of the trajectory and the field activity.
+    Nav(nav_cli::NavCmd),
+    /// Random worlds driven with the LIDAR alone and with fusion: success, collisions, path
+    /// length, time to goal and position error, on worlds with and without LIDAR-invisible
+    /// obstacles.
+    NavEval(nav_cli::NavEvalCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
 }
@@ -302,6 +310,8 @@ fn main() -> ExitCode {
         Command::Slam(cmd) => slam_cli::slam(*cmd),
         Command::SlamEval(cmd) => slam_cli::slam_eval(cmd),
         Command::SlamSynth(cmd) => slam_cli::slam_synth(cmd),
+        Command::Nav(cmd) => nav_cli::nav(cmd),
+        Command::NavEval(cmd) => nav_cli::nav_eval(cmd),
         Command::Info => info(),
     };
     match result {

@@ -441,3 +441,74 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
         assert!(help.contains(flag), "slam --help lacks {flag}");
     }
 }
+
+#[test]
+fn nav_and_nav_eval_run_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let plot = dir.path().join("nav.png");
+    let out = steernav()
+        .args([
+            "nav", "--random", "3", "--mode", "laser", "--json", "--plot",
+        ])
+        .arg(&plot)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["outcome"].is_string() && v["path_length"].is_number(),
+        "{v}"
+    );
+    assert!(image::open(&plot).is_ok());
+    let out = steernav()
+        .args([
+            "nav-eval",
+            "--episodes",
+            "3",
+            "--train",
+            "2",
+            "--seed",
+            "4",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for mode in ["laser", "fusion"] {
+        for key in [
+            "episodes",
+            "success_rate",
+            "collisions",
+            "path_length",
+            "time_to_goal",
+            "position_error_std",
+        ] {
+            assert!(v[mode][key].is_number(), "{mode}.{key} missing: {v}");
+        }
+    }
+    assert_eq!(v["laser"]["episodes"], 3);
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        "size = [8.0, 8.0]\nstart = [-1.0, 1.0, 0.0]\ngoal = [7.0, 7.0]\n",
+    )
+    .unwrap();
+    let out = steernav()
+        .args(["nav", "--world", bad.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("bad.toml") && err.contains("world.start"),
+        "{err}"
+    );
+}

@@ -204,8 +204,11 @@ pub fn run(
             let world_sectors: Vec<(f32, f32)> =
                 sectors.iter().map(|&(c, h)| (c + pose[2], h)).collect();
             let visual = visual_stimulus(&likelihood, &world_sectors, cfg.visual.gain, n);
+            // Fusion by the larger inhibition, not the sum: where the LIDAR already sees an
+            // obstacle the camera adds nothing, so fusion cannot make the robot shy of what
+            // LIDAR alone handles.
             for (o, v) in obstacle.iter_mut().zip(&visual) {
-                *o += v;
+                *o = o.max(*v);
             }
             // The LIDAR teaches: is a beam inside the sector closer than the bottom row's reach?
             let blocked: Vec<bool> = sectors

@@ -2,6 +2,8 @@
 //! stimulus, and episodes driven by the dynamic neural field.
 
 pub mod episode;
+pub mod evaluate;
+pub mod figure;
 pub mod sensors;
 pub mod visual;
 pub mod world;

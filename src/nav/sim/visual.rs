@@ -30,8 +30,9 @@ pub struct VisualConfig {
     pub gist: GistConfig,
     /// η, the Hebbian learning rate. Default 0.05.
     pub learning_rate: f32,
-    /// Amplitude of a sector's inhibition at likelihood 1. Default 20 (on 40 random worlds
-    /// with 40% LIDAR-invisible obstacles: 10 reaches 20 goals, 20 reaches 25).
+    /// Amplitude of a sector's inhibition at likelihood 1. Default 12: on 60 random worlds
+    /// (seed 5; 40% LIDAR-invisible obstacles) gains 12/20/30 reach 68/68/63% of goals against
+    /// LIDAR alone's 55%, and with every obstacle visible 12 alone matches LIDAR alone (93%).
     pub gain: f32,
     /// Slope κ of the logistic. Default 8.
     pub sharpness: f32,
@@ -48,7 +49,7 @@ impl Default for VisualConfig {
                 ..GistConfig::default()
             },
             learning_rate: 0.05,
-            gain: 20.0,
+            gain: 12.0,
             sharpness: 8.0,
             warmup: 20,
         }

@@ -1,0 +1,160 @@
+//! `nav-eval`: the same random worlds driven with the LIDAR alone and with LIDAR + camera
+//! fusion (paper section 4.2, Figs. 5b–d), summarised per mode.
+//!
+//! Fusion's visual model is first trained online on `training` separate random worlds (a
+//! robot that has driven a little), then every evaluation episode starts from a copy of it and
+//! keeps learning — so episodes are independent, run in parallel and are reproducible.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::episode::{run, Episode, Mode, NavConfig, Outcome};
+use super::visual::VisualObstacleModel;
+use super::world::World;
+use crate::error::Result;
+use crate::nav::gist::GistEngine;
+
+/// Figures of one mode over a set of episodes.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ModeSummary {
+    /// Episodes run.
+    pub episodes: usize,
+    /// Fraction that reached the goal.
+    pub success_rate: f64,
+    /// Episodes that ended in a collision.
+    pub collisions: usize,
+    /// Mean path length of the successful episodes, metres.
+    pub path_length: f64,
+    /// Mean time to goal of the successful episodes, seconds.
+    pub time_to_goal: f64,
+    /// Mean over episodes of the standard deviation of the distance to the start–goal line, m.
+    pub position_error_std: f64,
+}
+
+/// Laser and fusion on the same worlds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// LIDAR only.
+    pub laser: ModeSummary,
+    /// LIDAR + GIST.
+    pub fusion: ModeSummary,
+}
+
+/// Settings of an evaluation.
+#[derive(Clone, Debug)]
+pub struct EvalSettings {
+    /// Evaluation episodes (one random world each).
+    pub episodes: usize,
+    /// Seed of the worlds and the sensor noise.
+    pub seed: u64,
+    /// Obstacles per world.
+    pub obstacles: usize,
+    /// Fraction of obstacles lower than the LIDAR's scan plane.
+    pub invisible: f32,
+    /// Training episodes of the visual model before evaluating fusion.
+    pub training: usize,
+}
+
+/// Summary of finished episodes.
+pub fn summarise(episodes: &[Episode]) -> ModeSummary {
+    let n = episodes.len().max(1) as f64;
+    let reached: Vec<&Episode> = episodes
+        .iter()
+        .filter(|e| e.outcome == Outcome::Reached)
+        .collect();
+    let r = reached.len().max(1) as f64;
+    ModeSummary {
+        episodes: episodes.len(),
+        success_rate: reached.len() as f64 / n,
+        collisions: episodes
+            .iter()
+            .filter(|e| e.outcome == Outcome::Collision)
+            .count(),
+        path_length: reached.iter().map(|e| e.path_length as f64).sum::<f64>() / r,
+        time_to_goal: reached.iter().map(|e| e.time as f64).sum::<f64>() / r,
+        position_error_std: episodes
+            .iter()
+            .map(|e| e.position_error_std as f64)
+            .sum::<f64>()
+            / n,
+    }
+}
+
+/// Trains a visual model on `count` random worlds (seeds disjoint from the evaluation's).
+pub fn train_visual_model(
+    cfg: &NavConfig,
+    gist: &GistEngine,
+    settings: &EvalSettings,
+) -> Result<VisualObstacleModel> {
+    let mut model = VisualObstacleModel::default();
+    for k in 0..settings.training {
+        let seed = settings.seed.wrapping_add(1 << 32).wrapping_add(k as u64);
+        let world = World::random(seed, settings.obstacles, settings.invisible);
+        run(
+            &world,
+            cfg,
+            Mode::Fusion,
+            &mut model,
+            Some(gist),
+            seed,
+            false,
+        )?;
+    }
+    Ok(model)
+}
+
+/// Runs every episode in both modes; `worlds` maps an episode index to its world (so callers
+/// can make every obstacle visible for the control set). `progress` is called once per
+/// finished episode.
+pub fn compare(
+    cfg: &NavConfig,
+    gist: &GistEngine,
+    model: &VisualObstacleModel,
+    settings: &EvalSettings,
+    worlds: impl Fn(usize) -> World + Sync,
+    progress: impl Fn() + Sync,
+) -> Result<Comparison> {
+    let mut summaries = Vec::new();
+    for mode in [Mode::Laser, Mode::Fusion] {
+        let episodes: Vec<Episode> = (0..settings.episodes)
+            .into_par_iter()
+            .map(|k| {
+                let mut own = model.clone();
+                let world = worlds(k);
+                let e = run(
+                    &world,
+                    cfg,
+                    mode,
+                    &mut own,
+                    Some(gist),
+                    settings.seed.wrapping_add(k as u64),
+                    false,
+                );
+                progress();
+                e
+            })
+            .collect::<Result<_>>()?;
+        summaries.push(summarise(&episodes));
+    }
+    let fusion = summaries.pop().expect("two modes");
+    let laser = summaries.pop().expect("two modes");
+    Ok(Comparison { laser, fusion })
+}
+
+/// The evaluation worlds: world `k` of a run seeded `seed`.
+pub fn evaluation_world(settings: &EvalSettings, k: usize) -> World {
+    World::random(
+        settings.seed.wrapping_add(k as u64),
+        settings.obstacles,
+        settings.invisible,
+    )
+}
+
+/// The same world with every obstacle standing in the LIDAR's scan plane.
+pub fn all_visible(mut world: World) -> World {
+    for o in &mut world.obstacles {
+        o.height = o.height.max(1.0);
+        o.transparent = false;
+    }
+    world
+}

@@ -1,0 +1,245 @@
+//! The `nav` and `nav-eval` subcommands.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use clap::Args;
+use steernav::nav::gist::GistEngine;
+use steernav::nav::sim::episode::{run, Mode, NavConfig};
+use steernav::nav::sim::evaluate::{
+    all_visible, compare, evaluation_world, train_visual_model, Comparison, EvalSettings,
+    ModeSummary,
+};
+use steernav::nav::sim::figure::episode_figure;
+use steernav::nav::sim::world::World;
+
+use super::load_toml;
+
+#[derive(serde::Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+struct NavFile {
+    nav: NavConfig,
+}
+
+#[derive(Args)]
+pub struct NavCmd {
+    /// World TOML (size, start, goal, robot_radius, scan_height, [[obstacles]] with a circle
+    /// or polygon shape, height and transparent); see README.
+    #[arg(long, value_name = "FILE", conflicts_with = "random")]
+    world: Option<PathBuf>,
+    /// Use the seeded random world SEED instead of a file.
+    #[arg(long, value_name = "SEED")]
+    random: Option<u64>,
+    /// Sensors driving the field: laser (LIDAR alone) or fusion (LIDAR + learned GIST).
+    #[arg(long, value_enum, default_value_t = Mode::Laser)]
+    mode: Mode,
+    /// PNG: the world with the trajectory (Fig. 6) and the field activity over time (Fig. 5a).
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
+    /// Fusion only: episodes on random worlds that train the visual model first.
+    #[arg(long, default_value_t = 20)]
+    train: usize,
+    /// Seed of the sensor noise (and of the training worlds).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// TOML with a [nav] table: field, stimulus, lidar, camera, visual and the control keys.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print the episode's outcome, time, path length and position error std as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Args)]
+pub struct NavEvalCmd {
+    /// Random worlds to run, each with the LIDAR alone and with fusion.
+    #[arg(long, default_value_t = 500)]
+    episodes: usize,
+    /// Seed of the worlds and the sensor noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Obstacles per world.
+    #[arg(long, default_value_t = 8)]
+    obstacles: usize,
+    /// Fraction of obstacles lower than the LIDAR's scan plane (the camera still sees them).
+    #[arg(long, default_value_t = 0.4)]
+    invisible: f32,
+    /// Training episodes of the visual model before fusion is evaluated.
+    #[arg(long, default_value_t = 20)]
+    train: usize,
+    /// TOML with a [nav] table (as for `nav`).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print {"laser": {...}, "fusion": {...}} for the worlds with LIDAR-invisible obstacles
+    /// (keys episodes, success_rate, collisions, path_length, time_to_goal, position_error_std),
+    /// plus "all_visible" with the same worlds where the LIDAR sees every obstacle.
+    #[arg(long)]
+    json: bool,
+}
+
+fn config(path: Option<&std::path::Path>) -> anyhow::Result<NavConfig> {
+    let cfg = load_toml::<NavFile>(path)?.nav;
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+pub fn nav(cmd: NavCmd) -> anyhow::Result<ExitCode> {
+    let cfg = config(cmd.config.as_deref())?;
+    let world = match (&cmd.world, cmd.random) {
+        (Some(path), _) => World::load(path)?,
+        (None, Some(seed)) => World::random(seed, 8, 0.4),
+        (None, None) => anyhow::bail!("give --world FILE or --random SEED"),
+    };
+    let gist = GistEngine::new(cfg.visual.gist.clone())?;
+    let settings = EvalSettings {
+        episodes: 0,
+        seed: cmd.seed,
+        obstacles: world.obstacles.len().max(1),
+        invisible: 0.4,
+        training: if cmd.mode == Mode::Fusion {
+            cmd.train
+        } else {
+            0
+        },
+    };
+    let mut model = train_visual_model(&cfg, &gist, &settings)?;
+    let episode = run(
+        &world,
+        &cfg,
+        cmd.mode,
+        &mut model,
+        Some(&gist),
+        cmd.seed,
+        true,
+    )?;
+    if cmd.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "outcome": episode.outcome,
+                "time": episode.time,
+                "path_length": episode.path_length,
+                "position_error_std": episode.position_error_std,
+            })
+        );
+    } else {
+        println!(
+            "{:?}: {:?} after {:.1} s, {:.2} m driven, position error std {:.3} m",
+            cmd.mode,
+            episode.outcome,
+            episode.time,
+            episode.path_length,
+            episode.position_error_std
+        );
+    }
+    if let Some(path) = &cmd.plot {
+        let title = format!("{:?}", cmd.mode);
+        episode_figure(path, &world, &episode, &title)?;
+        if !cmd.json {
+            println!("figure: {}", path.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
+    let cfg = config(cmd.config.as_deref())?;
+    if !(0.0..=1.0).contains(&cmd.invisible) {
+        anyhow::bail!("--invisible: {} is not in [0, 1]", cmd.invisible);
+    }
+    if cmd.episodes == 0 {
+        anyhow::bail!("--episodes: at least 1");
+    }
+    let gist = GistEngine::new(cfg.visual.gist.clone())?;
+    let settings = EvalSettings {
+        episodes: cmd.episodes,
+        seed: cmd.seed,
+        obstacles: cmd.obstacles,
+        invisible: cmd.invisible,
+        training: cmd.train,
+    };
+    let bar = indicatif::ProgressBar::new((4 * cmd.episodes + cmd.train) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} episodes  {per_sec}  ETA {eta}  {msg}",
+        )
+        .expect("valid template"),
+    );
+    bar.set_message("training the visual model");
+    let model = train_visual_model(&cfg, &gist, &settings)?;
+    bar.inc(cmd.train as u64);
+    let done = AtomicU64::new(0);
+    let tick = || {
+        done.fetch_add(1, Ordering::Relaxed);
+        bar.inc(1);
+    };
+    bar.set_message("worlds with LIDAR-invisible obstacles");
+    let hidden = compare(
+        &cfg,
+        &gist,
+        &model,
+        &settings,
+        |k| evaluation_world(&settings, k),
+        tick,
+    )?;
+    bar.set_message("the same worlds, every obstacle visible");
+    let visible = compare(
+        &cfg,
+        &gist,
+        &model,
+        &settings,
+        |k| all_visible(evaluation_world(&settings, k)),
+        tick,
+    )?;
+    bar.finish_and_clear();
+    if cmd.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "laser": hidden.laser,
+                "fusion": hidden.fusion,
+                "all_visible": {"laser": visible.laser, "fusion": visible.fusion},
+            })
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!(
+        "{} random worlds (seed {}), {} obstacles each, {:.0}% of them below the LIDAR's scan plane:",
+        cmd.episodes,
+        cmd.seed,
+        cmd.obstacles,
+        100.0 * cmd.invisible
+    );
+    print_table(&hidden);
+    println!("\nThe same worlds with every obstacle visible to the LIDAR:");
+    print_table(&visible);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_table(c: &Comparison) {
+    println!(
+        "{:<8} {:>8} {:>10} {:>11} {:>13} {:>14} {:>19}",
+        "mode",
+        "episodes",
+        "success",
+        "collisions",
+        "path length",
+        "time to goal",
+        "position error std"
+    );
+    let row = |name: &str, s: &ModeSummary| {
+        println!(
+            "{:<8} {:>8} {:>9.1}% {:>11} {:>11.2} m {:>12.1} s {:>17.3} m",
+            name,
+            s.episodes,
+            100.0 * s.success_rate,
+            s.collisions,
+            s.path_length,
+            s.time_to_goal,
+            s.position_error_std
+        )
+    };
+    row("laser", &c.laser);
+    row("fusion", &c.fusion);
+}

@@ -1,0 +1,178 @@
+//! The navigation simulator: worlds from TOML with clear errors, sensors that see what they
+//! should, episodes that reach the goal, and fusion beating LIDAR alone where the LIDAR is
+//! blind without losing where it is not.
+
+use steernav::nav::gist::GistEngine;
+use steernav::nav::sim::episode::{run, Mode, NavConfig, Outcome};
+use steernav::nav::sim::evaluate::{
+    all_visible, compare, evaluation_world, train_visual_model, EvalSettings,
+};
+use steernav::nav::sim::visual::VisualObstacleModel;
+use steernav::nav::sim::world::{Obstacle, Shape, World};
+use steernav::synth::Rng;
+
+const WORLD: &str = r#"
+size = [8.0, 6.0]
+start = [1.0, 3.0, 0.0]
+goal = [7.0, 3.0]
+
+[[obstacles]]
+shape = { circle = { center = [4.0, 3.0], radius = 0.6 } }
+
+[[obstacles]]
+shape = { polygon = { points = [[5.5, 0.5], [6.0, 0.5], [6.0, 1.5], [5.5, 1.5]] } }
+height = 0.2
+"#;
+
+#[test]
+fn worlds_load_from_toml_and_bad_ones_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("w.toml");
+    std::fs::write(&path, WORLD).unwrap();
+    let w = World::load(&path).unwrap();
+    assert_eq!(w.obstacles.len(), 2);
+    assert!(w.lidar_sees(0) && !w.lidar_sees(1));
+    std::fs::write(
+        &path,
+        WORLD.replace("start = [1.0, 3.0, 0.0]", "start = [4.0, 3.0, 0.0]"),
+    )
+    .unwrap();
+    let message = World::load(&path).unwrap_err().to_string();
+    assert!(
+        message.contains("w.toml") && message.contains("world.start"),
+        "{message}"
+    );
+    std::fs::write(&path, "size = [8.0]\n").unwrap();
+    assert!(World::load(&path)
+        .unwrap_err()
+        .to_string()
+        .contains("w.toml"));
+    std::fs::write(&path, WORLD.replace("radius = 0.6", "radius = nan")).unwrap();
+    assert!(World::load(&path)
+        .unwrap_err()
+        .to_string()
+        .contains("world.obstacles"));
+}
+
+#[test]
+fn lidar_misses_low_obstacles_that_the_camera_shows() {
+    let w: World = toml::from_str(WORLD).unwrap();
+    let cfg = NavConfig::default();
+    // Facing the low box from 1 m: the LIDAR reads past it, the camera's bottom rows show it.
+    let pose = [5.75, 2.5, -std::f32::consts::FRAC_PI_2];
+    let scan = cfg.lidar.scan(&w, pose, &mut Rng(1));
+    let ahead = scan[cfg.lidar.beams / 2];
+    assert!(ahead > 1.5, "the LIDAR must not see the low box: {ahead}");
+    let view = cfg.camera.render(&w, pose);
+    let (width, height) = (view.width as usize, view.height as usize);
+    let column = width / 2;
+    let pixel = |y: usize| &view.rgb[3 * (y * width + column)..3 * (y * width + column) + 3];
+    let floor = [120u8, 115, 105];
+    assert_ne!(
+        pixel(height - 20),
+        &floor,
+        "the low box fills the bottom of the view"
+    );
+    // Its top (0.2 m) is below the camera (0.5 m): the rows at the horizon show the wall behind.
+    assert_ne!(pixel(height / 2 + 1), pixel(height - 20));
+}
+
+#[test]
+fn episodes_reach_the_goal_around_a_visible_obstacle() {
+    let w: World = toml::from_str(WORLD).unwrap();
+    let cfg = NavConfig::default();
+    let e = run(
+        &w,
+        &cfg,
+        Mode::Laser,
+        &mut VisualObstacleModel::default(),
+        None,
+        1,
+        true,
+    )
+    .unwrap();
+    assert_eq!(
+        e.outcome,
+        Outcome::Reached,
+        "{:?} after {} s",
+        e.outcome,
+        e.time
+    );
+    assert!(
+        e.path_length > 6.0 && e.path_length < 9.0,
+        "{}",
+        e.path_length
+    );
+    assert_eq!(e.field.len() + 1, e.trajectory.len());
+    // Every pose along the way is collision-free.
+    assert!(e.trajectory.iter().all(|p| !w.collides([p[0], p[1]])));
+}
+
+#[test]
+fn a_blocked_path_collides_or_times_out_but_never_passes_through() {
+    let mut w: World = toml::from_str(WORLD).unwrap();
+    // A wall of low boxes across the arena: nothing the LIDAR sees, no way through.
+    w.obstacles = vec![Obstacle {
+        shape: Shape::Polygon {
+            points: vec![[4.0, 0.0], [4.3, 0.0], [4.3, 6.0], [4.0, 6.0]],
+        },
+        height: 0.2,
+        transparent: false,
+    }];
+    let cfg = NavConfig::default();
+    let e = run(
+        &w,
+        &cfg,
+        Mode::Laser,
+        &mut VisualObstacleModel::default(),
+        None,
+        1,
+        false,
+    )
+    .unwrap();
+    assert_eq!(e.outcome, Outcome::Collision);
+    assert!(e.trajectory.iter().all(|p| p[0] < 4.0));
+}
+
+#[test]
+fn fusion_beats_lidar_alone_where_the_lidar_is_blind_and_matches_it_elsewhere() {
+    let cfg = NavConfig::default();
+    let gist = GistEngine::new(cfg.visual.gist.clone()).unwrap();
+    let settings = EvalSettings {
+        episodes: 40,
+        seed: 77,
+        obstacles: 8,
+        invisible: 0.4,
+        training: 10,
+    };
+    let model = train_visual_model(&cfg, &gist, &settings).unwrap();
+    assert!(model.obstacle_samples > 100 && model.free_samples > 100);
+    let hidden = compare(
+        &cfg,
+        &gist,
+        &model,
+        &settings,
+        |k| evaluation_world(&settings, k),
+        || {},
+    )
+    .unwrap();
+    let visible = compare(
+        &cfg,
+        &gist,
+        &model,
+        &settings,
+        |k| all_visible(evaluation_world(&settings, k)),
+        || {},
+    )
+    .unwrap();
+    eprintln!("hidden: {hidden:?}\nvisible: {visible:?}");
+    assert!(
+        hidden.fusion.success_rate > hidden.laser.success_rate
+            && hidden.fusion.collisions < hidden.laser.collisions,
+        "fusion must beat LIDAR alone with LIDAR-invisible obstacles: {hidden:?}"
+    );
+    assert!(
+        visible.fusion.success_rate >= visible.laser.success_rate - 0.05,
+        "fusion must not be worse when the LIDAR sees everything: {visible:?}"
+    );
+}
