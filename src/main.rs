@@ -57,6 +57,9 @@ enum Command {
     /// length, time to goal and position error, on worlds with and without LIDAR-invisible
     /// obstacles.
     NavEval(nav_cli::NavEvalCmd),
+    /// Random search over the field's and the stimuli's parameters, every candidate on the
+    /// same random worlds; prints the best as a config file.
+    NavSweep(nav_cli::NavSweepCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
 }
@@ -312,6 +315,7 @@ fn main() -> ExitCode {
         Command::SlamSynth(cmd) => slam_cli::slam_synth(cmd),
         Command::Nav(cmd) => nav_cli::nav(cmd),
         Command::NavEval(cmd) => nav_cli::nav_eval(cmd),
+        Command::NavSweep(cmd) => nav_cli::nav_sweep(cmd),
         Command::Info => info(),
     };
     match result {

@@ -496,6 +496,36 @@ fn nav_and_nav_eval_run_from_the_command_line() {
         }
     }
     assert_eq!(v["laser"]["episodes"], 3);
+    let out = steernav()
+        .args([
+            "nav-sweep",
+            "--samples",
+            "2",
+            "--episodes",
+            "3",
+            "--seed",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && text.contains("(base)"), "{text}");
+    let best = text
+        .split("Best as a config file:\n")
+        .nth(1)
+        .expect("best config printed");
+    let config = dir.path().join("best.toml");
+    std::fs::write(&config, best).unwrap();
+    let out = steernav()
+        .args(["nav", "--random", "3", "--json", "--config"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "the printed config must load: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let bad = dir.path().join("bad.toml");
     std::fs::write(
         &bad,

@@ -5,5 +5,6 @@ pub mod episode;
 pub mod evaluate;
 pub mod figure;
 pub mod sensors;
+pub mod sweep;
 pub mod visual;
 pub mod world;

@@ -1,0 +1,145 @@
+//! `nav-sweep`: random search over the field's and the stimuli's parameters — the paper notes
+//! that tuning them "can be challenging and time-consuming"; this makes it a command. Every
+//! candidate drives the same random worlds, and candidates are ranked by success rate minus
+//! half the collision rate.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::episode::{run, Mode, NavConfig};
+use super::evaluate::{evaluation_world, summarise, EvalSettings, ModeSummary};
+use super::visual::VisualObstacleModel;
+use crate::error::Result;
+use crate::nav::dnf::Interaction;
+use crate::nav::gist::GistEngine;
+use crate::synth::Rng;
+
+/// The parameters a candidate sets.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Candidate {
+    /// τ of eq 30, s.
+    pub tau: f32,
+    /// Resting level h.
+    pub h: f32,
+    /// Eq 31's inhibitory weight.
+    pub inhibit: f32,
+    /// c_o of eq 32.
+    pub c_o: f32,
+    /// σ of eq 32, 1/rad².
+    pub sigma: f32,
+    /// Distance scale of g(d), m.
+    pub g_scale: f32,
+    /// Turn rate per radian of heading error, 1/s.
+    pub turn_gain: f32,
+}
+
+/// One candidate's result.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepRow {
+    /// Its parameters.
+    pub candidate: Candidate,
+    /// Its episodes.
+    pub summary: ModeSummary,
+    /// success_rate − 0.5 × collision rate.
+    pub score: f64,
+}
+
+impl Candidate {
+    /// The candidate of `base`.
+    pub fn of(base: &NavConfig) -> Self {
+        let inhibit = match base.field.interaction {
+            Interaction::Amari { inhibit, .. } => inhibit,
+            Interaction::GaussianDifference { .. } => -2.2,
+        };
+        Self {
+            tau: base.field.tau,
+            h: base.field.h,
+            inhibit,
+            c_o: base.stimulus.c_o,
+            sigma: base.stimulus.sigma,
+            g_scale: base.stimulus.g_scale,
+            turn_gain: base.turn_gain,
+        }
+    }
+
+    /// A random candidate: log-uniform for scales, uniform for levels.
+    pub fn sample(rng: &mut Rng) -> Self {
+        let log = |rng: &mut Rng, a: f32, b: f32| (a.ln() + (b.ln() - a.ln()) * rng.unit()).exp();
+        Self {
+            tau: log(rng, 0.03, 0.3),
+            h: rng.range(-4.0, -0.5),
+            inhibit: rng.range(-4.0, -1.0),
+            c_o: log(rng, 3.0, 80.0),
+            sigma: log(rng, 3.0, 40.0),
+            g_scale: log(rng, 0.4, 2.5),
+            turn_gain: rng.range(1.0, 4.0),
+        }
+    }
+
+    /// `base` with this candidate's values.
+    pub fn apply(&self, base: &NavConfig) -> NavConfig {
+        let mut cfg = base.clone();
+        cfg.field.tau = self.tau;
+        cfg.field.h = self.h;
+        if let Interaction::Amari { excite, width, .. } = base.field.interaction {
+            cfg.field.interaction = Interaction::Amari {
+                excite,
+                inhibit: self.inhibit,
+                width,
+            };
+        }
+        cfg.stimulus.c_o = self.c_o;
+        cfg.stimulus.sigma = self.sigma;
+        cfg.stimulus.g_scale = self.g_scale;
+        cfg.turn_gain = self.turn_gain;
+        cfg
+    }
+}
+
+/// Runs `samples` random candidates plus the base configuration on the same worlds; rows
+/// come back best first. `progress` is called once per finished episode.
+pub fn sweep(
+    base: &NavConfig,
+    gist: &GistEngine,
+    model: &VisualObstacleModel,
+    mode: Mode,
+    settings: &EvalSettings,
+    samples: usize,
+    progress: impl Fn() + Sync,
+) -> Result<Vec<SweepRow>> {
+    let mut rng = Rng(settings.seed ^ 0x5EE9);
+    let mut candidates = vec![Candidate::of(base)];
+    candidates.extend((0..samples).map(|_| Candidate::sample(&mut rng)));
+    let mut rows = Vec::with_capacity(candidates.len());
+    for candidate in candidates {
+        let cfg = candidate.apply(base);
+        cfg.validate()?;
+        let episodes = (0..settings.episodes)
+            .into_par_iter()
+            .map(|k| {
+                let mut own = model.clone();
+                let e = run(
+                    &evaluation_world(settings, k),
+                    &cfg,
+                    mode,
+                    &mut own,
+                    Some(gist),
+                    settings.seed.wrapping_add(k as u64),
+                    false,
+                );
+                progress();
+                e
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let summary = summarise(&episodes);
+        let score =
+            summary.success_rate - 0.5 * summary.collisions as f64 / summary.episodes.max(1) as f64;
+        rows.push(SweepRow {
+            candidate,
+            summary,
+            score,
+        });
+    }
+    rows.sort_by(|a, b| b.score.total_cmp(&a.score));
+    Ok(rows)
+}
