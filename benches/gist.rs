@@ -1,5 +1,6 @@
 //! Criterion bench of the GIST descriptor (eqs 38–41) per image: 256×256 with the reference
-//! settings (4 scales × 8 orientations, 4×4 windows, pre-filter), and the simulator's 64×64.
+//! settings (4 scales × 8 orientations, 4×4 windows, pre-filter) and the simulator's 64×64 on
+//! the CPU, and (with an adapter) the GPU bank on batches of 8 images.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use steernav::nav::gist::{GistConfig, GistEngine};
@@ -18,6 +19,20 @@ fn gist(c: &mut Criterion) {
         group.bench_function(name, |b| {
             b.iter(|| engine.describe(&frame).expect("describes"))
         });
+    }
+    // The GPU bank (exact, direct DFTs). On lavapipe this measures a CPU rasteriser, so only
+    // the small size.
+    match steernav::gpu::GpuContext::shared() {
+        Ok(ctx) => {
+            let mut gpu =
+                steernav::gpu::gist::GpuGist::new(ctx, VisualConfig::default().gist).expect("fits");
+            let frames = vec![frame.clone(); 8];
+            group.throughput(Throughput::Elements(8));
+            group.bench_function("64x64 simulator, gpu, batch of 8", |b| {
+                b.iter(|| gpu.describe_batch(&frames).expect("describes"))
+            });
+        }
+        Err(e) => eprintln!("no GPU bench: {e}"),
     }
     group.finish();
 }

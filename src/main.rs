@@ -73,6 +73,10 @@ struct GistCmd {
     /// prefilter_fc, boundary; every key optional).
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
+    /// Where the filter bank runs: auto (GPU if an adapter exists), gpu, cpu. The GPU
+    /// computes the exact bank (as `decimate = false`) on all images in batched submissions.
+    #[arg(long, value_enum, default_value_t = Backend::Auto)]
+    backend: Backend,
 }
 
 #[derive(Args)]
@@ -631,17 +635,52 @@ fn load_toml<T: serde::de::DeserializeOwned + Default>(path: Option<&Path>) -> a
 
 fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
     let cfg: steernav::nav::gist::GistConfig = load_toml(cmd.config.as_deref())?;
-    let engine = steernav::nav::gist::GistEngine::new(cfg)?;
+    let engine = steernav::nav::gist::GistEngine::new(cfg.clone())?;
+    let ctx = match cmd.backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(steernav::gpu::GpuContext::shared()?),
+        Backend::Auto => match steernav::gpu::GpuContext::shared() {
+            Ok(ctx) => Some(ctx),
+            Err(e) => {
+                eprintln!("warning: {e}; using the CPU backend");
+                None
+            }
+        },
+    };
     let mut failed = 0;
+    let mut loaded = Vec::new();
     for path in &cmd.images {
-        match Frame::load(path).and_then(|f| engine.describe(&f)) {
-            Ok(d) => println!(
-                "{}",
-                serde_json::json!({"image": path.display().to_string(), "gist": d})
-            ),
+        match Frame::load(path) {
+            Ok(f) => loaded.push((path, f)),
             Err(e) => {
                 eprintln!("error: {e}");
                 failed += 1;
+            }
+        }
+    }
+    let print = |path: &Path, d: &[f32]| {
+        println!(
+            "{}",
+            serde_json::json!({"image": path.display().to_string(), "gist": d})
+        )
+    };
+    match ctx {
+        Some(ctx) => {
+            let mut gpu = steernav::gpu::gist::GpuGist::new(ctx, cfg)?;
+            let frames: Vec<Frame> = loaded.iter().map(|(_, f)| f.clone()).collect();
+            for ((path, _), d) in loaded.iter().zip(gpu.describe_batch(&frames)?) {
+                print(path, &d);
+            }
+        }
+        None => {
+            for (path, frame) in &loaded {
+                match engine.describe(frame) {
+                    Ok(d) => print(path, &d),
+                    Err(e) => {
+                        eprintln!("error: {}: {e}", path.display());
+                        failed += 1;
+                    }
+                }
             }
         }
     }

@@ -4,6 +4,7 @@
 pub mod context;
 pub mod dnf;
 pub mod filter_bank;
+pub mod gist;
 pub mod harris;
 pub mod pipelines;
 pub mod util;

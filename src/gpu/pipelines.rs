@@ -14,9 +14,12 @@ pub mod sources {
     pub const STEER: &str = include_str!("../../shaders/steer.wgsl");
     /// The dynamic neural field.
     pub const DNF: &str = include_str!("../../shaders/dnf.wgsl");
+    /// The GIST filter bank.
+    pub const GIST: &str = include_str!("../../shaders/gist.wgsl");
     /// Every shader with its file name.
-    pub const ALL: [(&str, &str); 6] = [
+    pub const ALL: [(&str, &str); 7] = [
         ("dnf.wgsl", DNF),
+        ("gist.wgsl", GIST),
         ("convolve.wgsl", CONVOLVE),
         ("products.wgsl", PRODUCTS),
         ("response.wgsl", RESPONSE),
@@ -41,6 +44,9 @@ pub struct Pipelines {
     pub steer: wgpu::ComputePipeline,
     /// `dnf.wgsl`.
     pub dnf: wgpu::ComputePipeline,
+    /// `gist.wgsl`, entry points in pass order: forward rows, forward columns, inverse
+    /// columns (with the filter), inverse rows (with |.|), window means.
+    pub gist: [wgpu::ComputePipeline; 5],
 }
 
 impl Pipelines {
@@ -71,6 +77,17 @@ impl Pipelines {
             nms: pipeline("nms", &module("nms", sources::NMS), "main"),
             steer: pipeline("steer", &module("steer", sources::STEER), "main"),
             dnf: pipeline("dnf", &module("dnf", sources::DNF), "main"),
+            gist: {
+                let gist = module("gist", sources::GIST);
+                [
+                    "forward_rows",
+                    "forward_columns",
+                    "inverse_columns",
+                    "inverse_rows",
+                    "window_means",
+                ]
+                .map(|entry| pipeline(entry, &gist, entry))
+            },
         }
     }
 }

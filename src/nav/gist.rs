@@ -291,8 +291,9 @@ impl GistEngine {
         &self.config
     }
 
-    /// The descriptor of one frame (L·O·K² floats, filter after filter, windows row-major).
-    pub fn describe(&self, frame: &Frame) -> Result<Vec<f32>> {
+    /// The image the filter bank sees: resized to M×M, scaled to 0..255, pre-filtered, and
+    /// mirror-padded to n×n (n = M + 2·boundary). The GPU twin starts from this plane.
+    pub fn padded_input(&self, frame: &Frame) -> Result<Vec<f32>> {
         crate::image::check_size("image", frame.width, frame.height)?;
         let m = self.config.size;
         let mut img = resize(&frame.gray, frame.width as usize, frame.height as usize, m);
@@ -302,8 +303,19 @@ impl GistEngine {
         if self.config.prefilter {
             img = self.prefilter(&img);
         }
+        Ok(pad_symmetric(&img, m, self.config.boundary))
+    }
+
+    /// Side n of the padded plane.
+    pub fn padded_size(&self) -> usize {
+        self.n
+    }
+
+    /// The descriptor of one frame (L·O·K² floats, filter after filter, windows row-major).
+    pub fn describe(&self, frame: &Frame) -> Result<Vec<f32>> {
+        let m = self.config.size;
         let (n, b) = (self.n, self.config.boundary);
-        let padded = pad_symmetric(&img, m, b);
+        let padded = self.padded_input(frame)?;
         let mut spectrum: Vec<Complex32> = padded.iter().map(|&v| Complex32::new(v, 0.0)).collect();
         self.fft.run(&mut spectrum, false, &mut Vec::new());
         let k = self.config.blocks;

@@ -1,0 +1,244 @@
+//! GPU twin of the GIST filter bank (eqs 38–41), `shaders/gist.wgsl`: a batch of images in one
+//! submission — their 2-D DFTs, every Gabor filter applied in the frequency domain, inverse
+//! DFTs of the unpadded region only, |·| and the K×K window means — and one readback of the
+//! descriptors. The pre-filter (two small FFTs) stays on the CPU
+//! ([`GistEngine::padded_input`]); the bank, 1 forward and L·M inverse transforms per image,
+//! is the heavy part. The CPU reference is [`GistEngine`] with `decimate = false`.
+
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+
+use super::util::{read_staging, staging, storage, storage_init, uniform};
+use super::GpuContext;
+use crate::error::{Error, Result};
+use crate::image::Frame;
+use crate::nav::gist::{gabor_bank, GistConfig, GistEngine};
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Params {
+    n: u32,
+    m: u32,
+    boundary: u32,
+    filters: u32,
+    blocks: u32,
+    images: u32,
+    inv_n2: f32,
+    _pad: u32,
+}
+
+/// Buffers for a batch of up to `capacity` images, reused across calls.
+struct Batch {
+    capacity: usize,
+    params: wgpu::Buffer,
+    input: wgpu::Buffer,
+    windows: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    groups: Vec<wgpu::BindGroup>,
+}
+
+/// GIST descriptors on the GPU.
+pub struct GpuGist {
+    ctx: Arc<GpuContext>,
+    cpu: GistEngine,
+    n: usize,
+    m: usize,
+    filters: usize,
+    blocks: usize,
+    twiddle: wgpu::Buffer,
+    gains: wgpu::Buffer,
+    batch: Option<Batch>,
+}
+
+impl GpuGist {
+    /// Uploads the filter bank and the twiddle table. `decimate` is ignored: the GPU computes
+    /// the exact full-resolution responses.
+    pub fn new(ctx: Arc<GpuContext>, config: GistConfig) -> Result<Self> {
+        let cpu = GistEngine::new(GistConfig {
+            decimate: false,
+            ..config
+        })?;
+        let config = cpu.config().clone();
+        let n = cpu.padded_size();
+        let bank = gabor_bank(&config, n);
+        let gains: Vec<f32> = bank.concat();
+        let twiddle: Vec<[f32; 2]> = (0..n)
+            .map(|j| {
+                let a = -std::f64::consts::TAU * j as f64 / n as f64;
+                [a.cos() as f32, a.sin() as f32]
+            })
+            .collect();
+        let device = &ctx.device;
+        Ok(Self {
+            twiddle: storage_init(device, "gist twiddle", &twiddle),
+            gains: storage_init(device, "gist gains", &gains),
+            n,
+            m: config.size,
+            filters: bank.len(),
+            blocks: config.blocks,
+            cpu,
+            ctx,
+            batch: None,
+        })
+    }
+
+    /// Images whose intermediates fit in one binding of this device.
+    fn capacity(&self) -> usize {
+        let (n, m, f) = (self.n as u64, self.m as u64, self.filters as u64);
+        let per_image = (f * m * n * 8).max(f * m * m * 4).max(n * n * 8);
+        (self.ctx.limits.max_storage_buffer_binding_size / per_image).clamp(1, 16) as usize
+    }
+
+    fn batch(&mut self) -> Result<&Batch> {
+        if self.batch.is_none() {
+            let capacity = self.capacity();
+            let (n, m, f, k) = (
+                self.n as u64,
+                self.m as u64,
+                self.filters as u64,
+                self.blocks as u64,
+            );
+            let c = capacity as u64;
+            let device = &self.ctx.device;
+            let params = uniform(
+                device,
+                "gist params",
+                &Params {
+                    n: 0,
+                    m: 0,
+                    boundary: 0,
+                    filters: 0,
+                    blocks: 0,
+                    images: 0,
+                    inv_n2: 0.0,
+                    _pad: 0,
+                },
+            );
+            let input = storage(device, "gist input", c * n * n * 4);
+            let rows = storage(device, "gist rows", c * n * n * 8);
+            let spectrum = storage(device, "gist spectrum", c * n * n * 8);
+            let partial = storage(device, "gist partial", c * f * m * n * 8);
+            let magnitude = storage(device, "gist magnitude", c * f * m * m * 4);
+            let windows = storage(device, "gist windows", c * f * k * k * 4);
+            let readback = staging(device, "gist readback", c * f * k * k * 4);
+            let p = &self.ctx.pipelines().gist;
+            let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
+                let entries: Vec<wgpu::BindGroupEntry> = entries
+                    .iter()
+                    .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                        binding: *binding,
+                        resource: buffer.as_entire_binding(),
+                    })
+                    .collect();
+                device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: None,
+                    layout: &pipeline.get_bind_group_layout(0),
+                    entries: &entries,
+                })
+            };
+            let groups = vec![
+                bind(
+                    &p[0],
+                    &[(0, &params), (1, &self.twiddle), (2, &input), (3, &rows)],
+                ),
+                bind(
+                    &p[1],
+                    &[(0, &params), (1, &self.twiddle), (3, &rows), (4, &spectrum)],
+                ),
+                bind(
+                    &p[2],
+                    &[
+                        (0, &params),
+                        (1, &self.twiddle),
+                        (4, &spectrum),
+                        (5, &self.gains),
+                        (6, &partial),
+                    ],
+                ),
+                bind(
+                    &p[3],
+                    &[
+                        (0, &params),
+                        (1, &self.twiddle),
+                        (6, &partial),
+                        (7, &magnitude),
+                    ],
+                ),
+                bind(&p[4], &[(0, &params), (7, &magnitude), (8, &windows)]),
+            ];
+            self.batch = Some(Batch {
+                capacity,
+                params,
+                input,
+                windows,
+                readback,
+                groups,
+            });
+        }
+        Ok(self.batch.as_ref().expect("just built"))
+    }
+
+    /// Descriptors of many frames: the CPU pre-filters, the GPU runs the bank on batches of
+    /// images in one submission each, and each batch is read back once.
+    pub fn describe_batch(&mut self, frames: &[Frame]) -> Result<Vec<Vec<f32>>> {
+        let inputs: Vec<Vec<f32>> = frames
+            .iter()
+            .map(|f| self.cpu.padded_input(f))
+            .collect::<Result<_>>()?;
+        let (n, m, filters, k) = (self.n, self.m, self.filters, self.blocks);
+        let per = filters * k * k;
+        let boundary = self.cpu.config().boundary;
+        let max_groups = self.ctx.limits.max_compute_workgroups_per_dimension as usize;
+        let mut out = Vec::with_capacity(frames.len());
+        let capacity = self.batch()?.capacity;
+        let batch = self.batch.as_ref().expect("built above");
+        let ctx = &self.ctx;
+        for chunk in inputs.chunks(capacity) {
+            let images = chunk.len();
+            if images * filters > max_groups {
+                return Err(Error::GpuLimit(format!(
+                    "{images} images × {filters} filters exceed max_compute_workgroups_per_dimension = {max_groups}"
+                )));
+            }
+            let queue = &ctx.queue;
+            let params = Params {
+                n: n as u32,
+                m: m as u32,
+                boundary: boundary as u32,
+                filters: filters as u32,
+                blocks: k as u32,
+                images: images as u32,
+                inv_n2: 1.0 / (n * n) as f32,
+                _pad: 0,
+            };
+            queue.write_buffer(&batch.params, 0, bytemuck::bytes_of(&params));
+            queue.write_buffer(&batch.input, 0, bytemuck::cast_slice(&chunk.concat()));
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                let p = &ctx.pipelines().gist;
+                let x = |width: usize| width.div_ceil(64) as u32;
+                let dispatches = [
+                    (x(n), n as u32, images as u32),
+                    (x(n), n as u32, images as u32),
+                    (x(n), m as u32, (images * filters) as u32),
+                    (x(m), m as u32, (images * filters) as u32),
+                    (x(images * per), 1, 1),
+                ];
+                for (stage, &(gx, gy, gz)) in dispatches.iter().enumerate() {
+                    pass.set_pipeline(&p[stage]);
+                    pass.set_bind_group(0, &batch.groups[stage], &[]);
+                    pass.dispatch_workgroups(gx, gy, gz);
+                }
+            }
+            let bytes = (images * per * 4) as u64;
+            enc.copy_buffer_to_buffer(&batch.windows, 0, &batch.readback, 0, Some(bytes));
+            queue.submit([enc.finish()]);
+            let data: Vec<f32> =
+                bytemuck::pod_collect_to_vec(&read_staging(&ctx.device, &batch.readback, bytes)?);
+            out.extend(data.chunks(per).map(|d| d.to_vec()));
+        }
+        Ok(out)
+    }
+}
