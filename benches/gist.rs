@@ -20,17 +20,27 @@ fn gist(c: &mut Criterion) {
             b.iter(|| engine.describe(&frame).expect("describes"))
         });
     }
-    // The GPU bank (exact, direct DFTs). On lavapipe this measures a CPU rasteriser, so only
-    // the small size.
+    // The GPU bank (exact), FFT and direct DFTs. On lavapipe this measures a CPU rasteriser.
     match steernav::gpu::GpuContext::shared() {
         Ok(ctx) => {
-            let mut gpu =
-                steernav::gpu::gist::GpuGist::new(ctx, VisualConfig::default().gist).expect("fits");
+            use steernav::gpu::gist::{GistMethod, GpuGist};
             let frames = vec![frame.clone(); 8];
             group.throughput(Throughput::Elements(8));
-            group.bench_function("64x64 simulator, gpu, batch of 8", |b| {
-                b.iter(|| gpu.describe_batch(&frames).expect("describes"))
-            });
+            for (name, config) in [
+                ("256x256", GistConfig::default()),
+                ("64x64", VisualConfig::default().gist),
+            ] {
+                for method in [GistMethod::Fft, GistMethod::Direct] {
+                    if name == "256x256" && method == GistMethod::Direct {
+                        continue; // seconds per image on lavapipe
+                    }
+                    let mut gpu =
+                        GpuGist::with_method(ctx.clone(), config.clone(), method).expect("fits");
+                    group.bench_function(format!("{name} gpu {method:?}, batch of 8"), |b| {
+                        b.iter(|| gpu.describe_batch(&frames).expect("describes"))
+                    });
+                }
+            }
         }
         Err(e) => eprintln!("no GPU bench: {e}"),
     }

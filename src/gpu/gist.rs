@@ -1,7 +1,9 @@
-//! GPU twin of the GIST filter bank (eqs 38–41), `shaders/gist.wgsl`: a batch of images in one
-//! submission — their 2-D DFTs, every Gabor filter applied in the frequency domain, inverse
-//! DFTs of the unpadded region only, |·| and the K×K window means — and one readback of the
-//! descriptors. The pre-filter (two small FFTs) stays on the CPU
+//! GPU twin of the GIST filter bank (eqs 38–41): a batch of images in one submission — their
+//! 2-D transforms, every Gabor filter applied in the frequency domain, inverse transforms, |·|
+//! and the K×K window means — and one readback of the descriptors. Two methods:
+//! [`GistMethod::Fft`] (`shaders/gist_fft.wgsl`, mixed-radix Stockham FFTs, one dispatch per
+//! radix stage; the default whenever the padded side factors into 2, 3, 5 and 7) and
+//! [`GistMethod::Direct`] (`shaders/gist.wgsl`, direct DFT sums, any size, O(n³)). The pre-filter (two small FFTs) stays on the CPU
 //! ([`GistEngine::padded_input`]); the bank, 1 forward and L·M inverse transforms per image,
 //! is the heavy part. The CPU reference is [`GistEngine`] with `decimate = false`.
 
@@ -28,6 +30,67 @@ struct Params {
     _pad: u32,
 }
 
+/// How the GPU computes the transforms.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GistMethod {
+    /// Mixed-radix FFTs: O(n² log n) per plane.
+    Fft,
+    /// Direct DFT sums: O(n³) per plane, any n.
+    Direct,
+}
+
+/// The radices (each 2..=8) whose product is n, largest first; `None` when n has a prime
+/// factor above 7.
+pub fn radices(n: usize) -> Option<Vec<u32>> {
+    let mut left = n;
+    let mut primes = Vec::new();
+    for p in [2usize, 3, 5, 7] {
+        while left.is_multiple_of(p) {
+            primes.push(p as u32);
+            left /= p;
+        }
+    }
+    if left != 1 || n < 2 {
+        return None;
+    }
+    let twos = primes.iter().filter(|&&p| p == 2).count() as u32;
+    let mut out: Vec<u32> = vec![8; (twos / 3) as usize];
+    match twos % 3 {
+        1 => out.push(2),
+        2 => out.push(4),
+        _ => {}
+    }
+    out.extend(primes.into_iter().filter(|&p| p != 2));
+    Some(out)
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Stage {
+    n: u32,
+    ns: u32,
+    radix: u32,
+    inverse: u32,
+    axis: u32,
+    planes: u32,
+    _p0: u32,
+    _p1: u32,
+}
+
+/// FFT-method buffers for up to `capacity` images.
+struct FftBatch {
+    capacity: usize,
+    bank: wgpu::Buffer,
+    input: wgpu::Buffer,
+    windows: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    /// Forward stages (rows then columns) and inverse stages: uniform, bind group, stage.
+    forward: Vec<(wgpu::Buffer, wgpu::BindGroup, Stage)>,
+    inverse: Vec<(wgpu::Buffer, wgpu::BindGroup, Stage)>,
+    filters_group: wgpu::BindGroup,
+    windows_group: wgpu::BindGroup,
+}
+
 /// Buffers for a batch of up to `capacity` images, reused across calls.
 struct Batch {
     capacity: usize,
@@ -49,12 +112,33 @@ pub struct GpuGist {
     twiddle: wgpu::Buffer,
     gains: wgpu::Buffer,
     batch: Option<Batch>,
+    method: GistMethod,
+    fft: Option<FftBatch>,
 }
 
 impl GpuGist {
     /// Uploads the filter bank and the twiddle table. `decimate` is ignored: the GPU computes
-    /// the exact full-resolution responses.
+    /// the exact full-resolution responses. FFTs when the padded side allows, else direct.
     pub fn new(ctx: Arc<GpuContext>, config: GistConfig) -> Result<Self> {
+        let mut gist = Self::with_method(ctx, config, GistMethod::Fft)?;
+        if radices(gist.n).is_none() {
+            gist.method = GistMethod::Direct;
+        }
+        Ok(gist)
+    }
+
+    /// The method in use.
+    pub fn method(&self) -> GistMethod {
+        self.method
+    }
+
+    /// As [`GpuGist::new`] with a chosen method; `Fft` on a side with a prime factor above 7
+    /// is an error.
+    pub fn with_method(
+        ctx: Arc<GpuContext>,
+        config: GistConfig,
+        method: GistMethod,
+    ) -> Result<Self> {
         let cpu = GistEngine::new(GistConfig {
             decimate: false,
             ..config
@@ -80,6 +164,18 @@ impl GpuGist {
             cpu,
             ctx,
             batch: None,
+            method,
+            fft: None,
+        })
+        .and_then(|g: Self| {
+            if method == GistMethod::Fft && radices(g.n).is_none() {
+                return Err(Error::config(
+                    "gist",
+                    g.n,
+                    "the padded side (size + 2·boundary) must factor into 2, 3, 5 and 7 for the FFT method",
+                ));
+            }
+            Ok(g)
         })
     }
 
@@ -186,6 +282,9 @@ impl GpuGist {
             .iter()
             .map(|f| self.cpu.padded_input(f))
             .collect::<Result<_>>()?;
+        if self.method == GistMethod::Fft {
+            return self.describe_fft(&inputs);
+        }
         let (n, m, filters, k) = (self.n, self.m, self.filters, self.blocks);
         let per = filters * k * k;
         let boundary = self.cpu.config().boundary;
@@ -231,6 +330,173 @@ impl GpuGist {
                     pass.set_bind_group(0, &batch.groups[stage], &[]);
                     pass.dispatch_workgroups(gx, gy, gz);
                 }
+            }
+            let bytes = (images * per * 4) as u64;
+            enc.copy_buffer_to_buffer(&batch.windows, 0, &batch.readback, 0, Some(bytes));
+            queue.submit([enc.finish()]);
+            let data: Vec<f32> =
+                bytemuck::pod_collect_to_vec(&read_staging(&ctx.device, &batch.readback, bytes)?);
+            out.extend(data.chunks(per).map(|d| d.to_vec()));
+        }
+        Ok(out)
+    }
+}
+
+impl GpuGist {
+    fn fft_batch(&mut self) -> Result<()> {
+        if self.fft.is_some() {
+            return Ok(());
+        }
+        let (n, f, k) = (self.n as u64, self.filters as u64, self.blocks as u64);
+        let limit = self.ctx.limits.max_storage_buffer_binding_size;
+        let capacity = (limit / (f * n * n * 8)).clamp(1, 16);
+        let c = capacity;
+        let device = &self.ctx.device;
+        let bank = uniform(device, "gist bank", &[0u32; 8]);
+        let a = storage(device, "gist fft a", c * n * n * 8);
+        let b = storage(device, "gist fft b", c * n * n * 8);
+        let planes_c = storage(device, "gist fft c", c * f * n * n * 8);
+        let planes_d = storage(device, "gist fft d", c * f * n * n * 8);
+        let windows = storage(device, "gist windows", c * f * k * k * 4);
+        let readback = staging(device, "gist readback", c * f * k * k * 4);
+        let p = &self.ctx.pipelines().gist_fft;
+        let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
+            let entries: Vec<wgpu::BindGroupEntry> = entries
+                .iter()
+                .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: buffer.as_entire_binding(),
+                })
+                .collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &pipeline.get_bind_group_layout(0),
+                entries: &entries,
+            })
+        };
+        let radices = radices(self.n).expect("checked at construction");
+        // Rows then columns; the stages ping-pong between two buffers, an even count, so the
+        // result lands back in the first.
+        let stages = |inverse: u32, first: &wgpu::Buffer, second: &wgpu::Buffer| {
+            let mut out = Vec::new();
+            for axis in 0..2u32 {
+                let mut ns = 1u32;
+                for &radix in &radices {
+                    let stage = Stage {
+                        n: n as u32,
+                        ns,
+                        radix,
+                        inverse,
+                        axis,
+                        planes: 0,
+                        _p0: 0,
+                        _p1: 0,
+                    };
+                    let buffer = uniform(device, "gist fft stage", &stage);
+                    let (src, dst) = if out.len() % 2 == 0 {
+                        (first, second)
+                    } else {
+                        (second, first)
+                    };
+                    let group = bind(&p[0], &[(0, &buffer), (1, src), (2, dst)]);
+                    out.push((buffer, group, stage));
+                    ns *= radix;
+                }
+            }
+            out
+        };
+        let forward = stages(0, &a, &b);
+        let inverse = stages(1, &planes_c, &planes_d);
+        let filters_group = bind(
+            &p[1],
+            &[(0, &bank), (3, &a), (4, &self.gains), (5, &planes_c)],
+        );
+        let windows_group = bind(&p[2], &[(0, &bank), (6, &planes_c), (7, &windows)]);
+        self.fft = Some(FftBatch {
+            capacity: capacity as usize,
+            bank,
+            input: a,
+            windows,
+            readback,
+            forward,
+            inverse,
+            filters_group,
+            windows_group,
+        });
+        Ok(())
+    }
+
+    fn describe_fft(&mut self, inputs: &[Vec<f32>]) -> Result<Vec<Vec<f32>>> {
+        self.fft_batch()?;
+        let batch = self.fft.as_ref().expect("built above");
+        let ctx = &self.ctx;
+        let (n, m, filters, k) = (self.n, self.m, self.filters, self.blocks);
+        let per = filters * k * k;
+        let max_groups = ctx.limits.max_compute_workgroups_per_dimension as usize;
+        let mut out = Vec::with_capacity(inputs.len());
+        for chunk in inputs.chunks(batch.capacity) {
+            let images = chunk.len();
+            if images * filters > max_groups || (n * n).div_ceil(64) > max_groups {
+                return Err(Error::GpuLimit(format!(
+                    "{images} images × {filters} filters of {n}² exceed max_compute_workgroups_per_dimension = {max_groups}"
+                )));
+            }
+            let queue = &ctx.queue;
+            let bank = Params {
+                n: n as u32,
+                m: m as u32,
+                boundary: self.cpu.config().boundary as u32,
+                filters: filters as u32,
+                blocks: k as u32,
+                images: images as u32,
+                inv_n2: 1.0 / (n * n) as f32,
+                _pad: 0,
+            };
+            queue.write_buffer(&batch.bank, 0, bytemuck::bytes_of(&bank));
+            for (buffer, _, stage) in &batch.forward {
+                let s = Stage {
+                    planes: images as u32,
+                    ..*stage
+                };
+                queue.write_buffer(buffer, 0, bytemuck::bytes_of(&s));
+            }
+            for (buffer, _, stage) in &batch.inverse {
+                let s = Stage {
+                    planes: (images * filters) as u32,
+                    ..*stage
+                };
+                queue.write_buffer(buffer, 0, bytemuck::bytes_of(&s));
+            }
+            let complex: Vec<[f32; 2]> = chunk.iter().flatten().map(|&v| [v, 0.0]).collect();
+            queue.write_buffer(&batch.input, 0, bytemuck::cast_slice(&complex));
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                let p = &ctx.pipelines().gist_fft;
+                pass.set_pipeline(&p[0]);
+                for (_, group, stage) in &batch.forward {
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(
+                        (n / stage.radix as usize).div_ceil(64) as u32,
+                        n as u32,
+                        images as u32,
+                    );
+                }
+                pass.set_pipeline(&p[1]);
+                pass.set_bind_group(0, &batch.filters_group, &[]);
+                pass.dispatch_workgroups((n * n).div_ceil(64) as u32, 1, (images * filters) as u32);
+                pass.set_pipeline(&p[0]);
+                for (_, group, stage) in &batch.inverse {
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(
+                        (n / stage.radix as usize).div_ceil(64) as u32,
+                        n as u32,
+                        (images * filters) as u32,
+                    );
+                }
+                pass.set_pipeline(&p[2]);
+                pass.set_bind_group(0, &batch.windows_group, &[]);
+                pass.dispatch_workgroups((images * per).div_ceil(64) as u32, 1, 1);
             }
             let bytes = (images * per * 4) as u64;
             enc.copy_buffer_to_buffer(&batch.windows, 0, &batch.readback, 0, Some(bytes));

@@ -16,10 +16,13 @@ pub mod sources {
     pub const DNF: &str = include_str!("../../shaders/dnf.wgsl");
     /// The GIST filter bank.
     pub const GIST: &str = include_str!("../../shaders/gist.wgsl");
+    /// The GIST filter bank by mixed-radix FFTs.
+    pub const GIST_FFT: &str = include_str!("../../shaders/gist_fft.wgsl");
     /// Every shader with its file name.
-    pub const ALL: [(&str, &str); 7] = [
+    pub const ALL: [(&str, &str); 8] = [
         ("dnf.wgsl", DNF),
         ("gist.wgsl", GIST),
+        ("gist_fft.wgsl", GIST_FFT),
         ("convolve.wgsl", CONVOLVE),
         ("products.wgsl", PRODUCTS),
         ("response.wgsl", RESPONSE),
@@ -47,6 +50,8 @@ pub struct Pipelines {
     /// `gist.wgsl`, entry points in pass order: forward rows, forward columns, inverse
     /// columns (with the filter), inverse rows (with |.|), window means.
     pub gist: [wgpu::ComputePipeline; 5],
+    /// `gist_fft.wgsl`: one FFT stage, the filter products, the window means.
+    pub gist_fft: [wgpu::ComputePipeline; 3],
 }
 
 impl Pipelines {
@@ -87,6 +92,11 @@ impl Pipelines {
                     "window_means",
                 ]
                 .map(|entry| pipeline(entry, &gist, entry))
+            },
+            gist_fft: {
+                let fft = module("gist_fft", sources::GIST_FFT);
+                ["fft_stage", "apply_filters", "window_means"]
+                    .map(|entry| pipeline(entry, &fft, entry))
             },
         }
     }
