@@ -67,7 +67,7 @@ pub const STAGES: [(&str, fn(&Detection, f64) -> Option<f64>); 9] = [
     ("end to end", |_, total| Some(total)),
 ];
 
-fn percentile(sorted: &[f64], q: f64) -> f64 {
+pub(crate) fn percentile(sorted: &[f64], q: f64) -> f64 {
     let i = ((sorted.len() - 1) as f64 * q).round() as usize;
     sorted[i]
 }

@@ -94,7 +94,11 @@ struct NavReplayCmd {
 
 #[derive(Args)]
 struct BenchCmd {
-    /// Image sizes (generated textured scenes), WxH separated by commas.
+    /// What to time: detect (every stage of the detector per image size) or nav (GIST per
+    /// image and the neural field at B = 1, 64, 4096).
+    #[arg(long, default_value = "detect", value_parser = ["detect", "nav"])]
+    suite: String,
+    /// Image sizes (generated textured scenes), WxH separated by commas (detect suite).
     #[arg(
         long,
         default_value = "320x240,640x480,1280x720,1920x1080",
@@ -741,6 +745,17 @@ fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  ETA {eta}")
             .expect("valid template"),
     );
+    if cmd.suite == "nav" {
+        bar.set_length((6 * backends.len() * cmd.runs.max(1)) as u64);
+        let rows = steernav::nav::bench::run(&backends, cmd.warmup, cmd.runs, &bar)?;
+        bar.finish_and_clear();
+        if cmd.json {
+            println!("{}", serde_json::to_string_pretty(&rows)?);
+        } else {
+            print!("{}", steernav::nav::bench::table(&rows, adapter.as_deref()));
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
     let rows = steernav::bench::run(&config, &sizes, &backends, cmd.warmup, cmd.runs, &bar)?;
     bar.finish_and_clear();
     if cmd.json {

@@ -542,3 +542,35 @@ fn nav_and_nav_eval_run_from_the_command_line() {
         "{err}"
     );
 }
+
+#[test]
+fn bench_nav_suite_times_gist_and_the_field() {
+    let out = steernav()
+        .args([
+            "bench",
+            "--suite",
+            "nav",
+            "--backend",
+            "cpu",
+            "--runs",
+            "1",
+            "--warmup",
+            "0",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(rows.len(), 5, "2 GIST sizes + 3 field sizes");
+    for r in &rows {
+        for key in ["stage", "backend", "size", "median_ms", "p10_ms", "p90_ms"] {
+            assert!(!r[key].is_null(), "{key} missing in {r}");
+        }
+    }
+    assert!(rows.iter().any(|r| r["size"] == "B=4096"));
+}
