@@ -77,6 +77,9 @@ pub struct NavEvalCmd {
     /// plus "all_visible" with the same worlds where the LIDAR sees every obstacle.
     #[arg(long)]
     json: bool,
+    /// PNG: success and collision rates per mode, with and without invisible obstacles.
+    #[arg(long, value_name = "FILE")]
+    plot: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -223,6 +226,12 @@ pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
         tick,
     )?;
     bar.finish_and_clear();
+    if let Some(path) = &cmd.plot {
+        steernav::nav::sim::figure::comparison_figure(path, &hidden, &visible)?;
+        if !cmd.json {
+            println!("figure: {}", path.display());
+        }
+    }
     if cmd.json {
         println!(
             "{}",

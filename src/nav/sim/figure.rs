@@ -129,3 +129,78 @@ pub fn episode_figure(path: &Path, world: &World, episode: &Episode, title: &str
     root.present().map_err(|e| err(e.to_string()))?;
     Ok(())
 }
+
+/// The `nav-eval` figure: success and collision rates of LIDAR alone and of fusion, on worlds
+/// with LIDAR-invisible obstacles and on the same worlds with every obstacle visible
+/// (Figs. 5b–d in spirit).
+pub fn comparison_figure(
+    path: &Path,
+    hidden: &super::evaluate::Comparison,
+    visible: &super::evaluate::Comparison,
+) -> Result<()> {
+    crate::plot::register_font();
+    let err = |e: String| Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    };
+    let root = BitMapBackend::new(path, (1000, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let panels = root.split_evenly((1, 2));
+    for (panel, (title, c)) in panels.iter().zip([
+        ("With LIDAR-invisible obstacles", hidden),
+        ("Every obstacle visible", visible),
+    ]) {
+        let mut chart = ChartBuilder::on(panel)
+            .caption(
+                format!("{title} ({} worlds)", c.laser.episodes),
+                ("sans-serif", 20),
+            )
+            .margin(15)
+            .x_label_area_size(35)
+            .y_label_area_size(45)
+            .build_cartesian_2d(0f32..4f32, 0f32..100f32)
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(0)
+            .y_desc("% of episodes")
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        let rate = |s: &super::evaluate::ModeSummary| {
+            (
+                100.0 * s.success_rate as f32,
+                100.0 * s.collisions as f32 / s.episodes.max(1) as f32,
+            )
+        };
+        let (ls, lc) = rate(&c.laser);
+        let (fs, fc) = rate(&c.fusion);
+        let bars = [
+            (0.2, ls, RGBColor(120, 120, 120), "laser: success"),
+            (1.0, fs, RGBColor(30, 90, 220), "fusion: success"),
+            (2.2, lc, RGBColor(200, 120, 120), "laser: collisions"),
+            (3.0, fc, RGBColor(220, 40, 40), "fusion: collisions"),
+        ];
+        for (x, h, colour, label) in bars {
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x, 0.0), (x + 0.7, h)],
+                    colour.filled(),
+                )))
+                .map_err(|e| err(e.to_string()))?
+                .label(format!("{label} {h:.1}%"))
+                .legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 4), (x + 14, y + 4)], colour.filled())
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+    }
+    root.present().map_err(|e| err(e.to_string()))?;
+    Ok(())
+}
