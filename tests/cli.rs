@@ -474,9 +474,12 @@ fn nav_and_nav_eval_run_from_the_command_line() {
             "--seed",
             "4",
             "--json",
+            "--plot",
         ])
+        .arg(dir.path().join("eval.png"))
         .output()
         .unwrap();
+    assert!(image::open(dir.path().join("eval.png")).is_ok());
     assert!(
         out.status.success(),
         "{}",
