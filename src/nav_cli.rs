@@ -80,6 +80,10 @@ pub struct NavEvalCmd {
     /// PNG: success and collision rates per mode, with and without invisible obstacles.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
+    /// Where the batched field runs: cpu (FieldBatch on all cores) or gpu (one dispatch chain
+    /// steps every episode's field). On lavapipe the CPU is faster.
+    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
+    field_backend: String,
 }
 
 #[derive(Args)]
@@ -109,6 +113,18 @@ pub struct NavSweepCmd {
     /// Print every candidate's parameters and figures as a JSON array, best first.
     #[arg(long)]
     json: bool,
+    /// Where the batched field runs: cpu (FieldBatch on all cores) or gpu (one dispatch chain
+    /// steps every episode's field). On lavapipe the CPU is faster.
+    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
+    field_backend: String,
+}
+
+fn field_gpu(backend: &str) -> anyhow::Result<Option<std::sync::Arc<steernav::gpu::GpuContext>>> {
+    Ok(if backend == "gpu" {
+        Some(steernav::gpu::GpuContext::shared()?)
+    } else {
+        None
+    })
 }
 
 fn config(path: Option<&std::path::Path>) -> anyhow::Result<NavConfig> {
@@ -208,12 +224,14 @@ pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
         bar.inc(1);
     };
     bar.set_message("worlds with LIDAR-invisible obstacles");
+    let gpu = field_gpu(&cmd.field_backend)?;
     let hidden = compare(
         &cfg,
         &gist,
         &model,
         &settings,
         |k| evaluation_world(&settings, k),
+        gpu.as_ref(),
         tick,
     )?;
     bar.set_message("the same worlds, every obstacle visible");
@@ -223,6 +241,7 @@ pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
         &model,
         &settings,
         |k| all_visible(evaluation_world(&settings, k)),
+        gpu.as_ref(),
         tick,
     )?;
     bar.finish_and_clear();
@@ -314,6 +333,7 @@ pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
         cmd.mode,
         &settings,
         cmd.samples,
+        field_gpu(&cmd.field_backend)?.as_ref(),
         || bar.inc(1),
     )?;
     bar.finish_and_clear();

@@ -143,8 +143,217 @@ pub struct Episode {
     pub field: Vec<Vec<f32>>,
 }
 
-/// Runs one episode. In fusion mode `model` is used and trained online (pass the same model
-/// to later episodes to keep what was learned). `seed` drives the sensor noise.
+/// One episode advanced step by step, so that many episodes can share one batched field:
+/// [`Robot::sense`] gives the field's stimulus, the caller steps the field (alone or batched,
+/// CPU or GPU), and [`Robot::act`] reads φ_F and moves.
+pub struct Robot<'a> {
+    world: &'a World,
+    cfg: &'a NavConfig,
+    mode: Mode,
+    model: VisualObstacleModel,
+    rng: Rng,
+    pose: [f32; 3],
+    beam_cfg: StimulusConfig,
+    bearings: Vec<f32>,
+    sectors: Vec<(f32, f32)>,
+    near: f32,
+    ranges: Vec<f32>,
+    trajectory: Vec<[f32; 3]>,
+    fields: Vec<Vec<f32>>,
+    record_field: bool,
+    time: f32,
+    length: f32,
+    outcome: Option<Outcome>,
+}
+
+impl<'a> Robot<'a> {
+    /// A robot at the world's start; `seed` drives the sensor noise; `model` is its visual
+    /// model (trained further online in fusion mode).
+    pub fn new(
+        world: &'a World,
+        cfg: &'a NavConfig,
+        mode: Mode,
+        model: VisualObstacleModel,
+        seed: u64,
+        record_field: bool,
+    ) -> Self {
+        let pose = [world.start[0], world.start[1], world.start[2].to_radians()];
+        let spacing = cfg.lidar.fov_deg.to_radians() / (cfg.lidar.beams - 1) as f32;
+        let blocks = cfg.visual.gist.blocks;
+        let sector_width = cfg.camera.fov_deg.to_radians() / blocks as f32;
+        let sectors = (0..blocks)
+            .map(|c| {
+                let centre = cfg
+                    .camera
+                    .column_bearing((c as f32 + 0.5) * cfg.camera.width as f32 / blocks as f32);
+                (centre, 0.5 * sector_width)
+            })
+            .collect();
+        Self {
+            world,
+            cfg,
+            mode,
+            model,
+            rng: Rng(seed),
+            pose,
+            beam_cfg: cfg.stimulus.per_beam(spacing),
+            bearings: (0..cfg.lidar.beams).map(|i| cfg.lidar.bearing(i)).collect(),
+            sectors,
+            near: cfg.camera.near_distance(1.0 / blocks as f32),
+            ranges: Vec::new(),
+            trajectory: vec![pose],
+            fields: Vec::new(),
+            record_field,
+            time: 0.0,
+            length: 0.0,
+            outcome: None,
+        }
+    }
+
+    /// Whether the episode has ended (goal, collision or time limit).
+    pub fn done(&mut self) -> bool {
+        if self.outcome.is_none() {
+            let to_goal = [
+                self.world.goal[0] - self.pose[0],
+                self.world.goal[1] - self.pose[1],
+            ];
+            if to_goal[0].hypot(to_goal[1]) < self.cfg.goal_tolerance {
+                self.outcome = Some(Outcome::Reached);
+            } else if self.time >= self.cfg.max_time {
+                self.outcome = Some(Outcome::Timeout);
+            }
+        }
+        self.outcome.is_some()
+    }
+
+    /// Scans (and in fusion mode looks, and learns), and returns the field's stimulus S
+    /// (eq 34, plus the GIST stimulus), on the allocentric ring.
+    pub fn sense(&mut self, gist: Option<&GistEngine>) -> Result<Vec<f32>> {
+        let (cfg, world, pose) = (self.cfg, self.world, self.pose);
+        let n = cfg.field.neurons;
+        self.ranges = cfg.lidar.scan(world, pose, &mut self.rng);
+        let (near_ranges, near_bearings): (Vec<f32>, Vec<f32>) = self
+            .ranges
+            .iter()
+            .zip(&self.bearings)
+            .filter(|(r, _)| **r < cfg.lidar.max_range)
+            .map(|(r, b)| (*r, *b))
+            .unzip();
+        // The field is allocentric — neuron i is the world heading 2πi/N — so a peak stays put
+        // while the robot turns toward it; sensor bearings are rotated into the world frame.
+        let world_bearings: Vec<f32> = near_bearings.iter().map(|b| b + pose[2]).collect();
+        let mut obstacle = obstacle_stimulus(&near_ranges, &world_bearings, &self.beam_cfg, n)?;
+        if self.mode == Mode::Fusion {
+            let engine =
+                gist.ok_or_else(|| Error::config("mode", "fusion", "needs a GIST engine"))?;
+            let view = cfg.camera.render(world, pose);
+            let blocks = cfg.visual.gist.blocks;
+            let features = sector_features(&engine.describe(&view)?, blocks);
+            let likelihood = self.model.predict(&features, &cfg.visual);
+            let world_sectors: Vec<(f32, f32)> = self
+                .sectors
+                .iter()
+                .map(|&(c, h)| (c + pose[2], h))
+                .collect();
+            let visual = visual_stimulus(&likelihood, &world_sectors, cfg.visual.gain, n);
+            // Fusion by the larger inhibition, not the sum: where the LIDAR already sees an
+            // obstacle the camera adds nothing, so fusion cannot make the robot shy of what
+            // LIDAR alone handles.
+            for (o, v) in obstacle.iter_mut().zip(&visual) {
+                *o = o.max(*v);
+            }
+            // The LIDAR teaches: is a beam inside the sector closer than the bottom row's reach?
+            let blocked: Vec<bool> = self
+                .sectors
+                .iter()
+                .map(|&(c, half)| {
+                    self.ranges
+                        .iter()
+                        .zip(&self.bearings)
+                        .any(|(r, b)| angle_diff(*b, c).abs() <= half && *r < self.near)
+                })
+                .collect();
+            self.model
+                .learn(&features, &blocked, cfg.visual.learning_rate);
+        }
+        let target = (world.goal[1] - pose[1]).atan2(world.goal[0] - pose[0]);
+        let mut s = combined(&target_stimulus(target, &cfg.stimulus, n), &obstacle);
+        for (i, si) in s.iter_mut().enumerate() {
+            let h = angle_diff(i as f32 * std::f32::consts::TAU / n as f32, pose[2]);
+            if h.abs() > std::f32::consts::FRAC_PI_2 {
+                *si -= cfg.rear_inhibition;
+            }
+        }
+        Ok(s)
+    }
+
+    /// Reads φ_F (eq 29) from the field's activations, sets the velocities (eqs 35–37) and
+    /// integrates the unicycle over one control period with an exact collision test.
+    pub fn act(&mut self, field: &[f32]) {
+        let cfg = self.cfg;
+        let n = field.len();
+        let peak_index = (0..n).fold(0, |best, i| if field[i] > field[best] { i } else { best });
+        // φ_F relative to where the robot points.
+        let heading = angle_diff(crate::nav::dnf::heading(peak_index, n), self.pose[2]);
+        if self.record_field {
+            self.fields.push(field.to_vec());
+        }
+        let to_goal = [
+            self.world.goal[0] - self.pose[0],
+            self.world.goal[1] - self.pose[1],
+        ];
+        let (nearest, nearest_bearing) =
+            self.ranges
+                .iter()
+                .zip(&self.bearings)
+                .fold((f32::INFINITY, 0.0), |best, (r, b)| {
+                    if *r < best.0 {
+                        (*r, *b)
+                    } else {
+                        best
+                    }
+                });
+        let v = velocity(
+            target_velocity(to_goal[0].hypot(to_goal[1]), &cfg.stimulus),
+            obstacle_velocity(heading, nearest, nearest_bearing, &cfg.stimulus),
+            field[peak_index],
+        ) * heading.cos().max(0.0);
+        let omega = (cfg.turn_gain * heading).clamp(-cfg.max_turn_rate, cfg.max_turn_rate);
+        let substeps = (cfg.control_period / cfg.substep).ceil().max(1.0) as usize;
+        let h = cfg.control_period / substeps as f32;
+        let pose = &mut self.pose;
+        for _ in 0..substeps {
+            let before = [pose[0], pose[1]];
+            pose[0] += v * pose[2].cos() * h;
+            pose[1] += v * pose[2].sin() * h;
+            pose[2] = angle_diff(pose[2] + omega * h, 0.0);
+            self.length += (pose[0] - before[0]).hypot(pose[1] - before[1]);
+            if self.world.collides([pose[0], pose[1]]) {
+                self.outcome = Some(Outcome::Collision);
+                break;
+            }
+        }
+        self.time += cfg.control_period;
+        self.trajectory.push(*pose);
+    }
+
+    /// The record of the finished (or abandoned) episode, and the visual model as it ends.
+    pub fn finish(self) -> (Episode, VisualObstacleModel) {
+        let episode = Episode {
+            outcome: self.outcome.unwrap_or(Outcome::Timeout),
+            time: self.time,
+            path_length: self.length,
+            position_error_std: deviation_std(self.world, &self.trajectory),
+            trajectory: self.trajectory,
+            field: self.fields,
+        };
+        (episode, self.model)
+    }
+}
+
+/// Runs one episode with its own field. In fusion mode `model` is used and trained online
+/// (pass the same model to later episodes to keep what was learned). `seed` drives the
+/// sensor noise.
 pub fn run(
     world: &World,
     cfg: &NavConfig,
@@ -154,135 +363,88 @@ pub fn run(
     seed: u64,
     record_field: bool,
 ) -> Result<Episode> {
-    let n = cfg.field.neurons;
     let mut field = FieldBatch::new(cfg.field.clone(), 1)?;
-    let mut rng = Rng(seed);
-    let mut pose = [world.start[0], world.start[1], world.start[2].to_radians()];
-    let spacing = cfg.lidar.fov_deg.to_radians() / (cfg.lidar.beams - 1) as f32;
-    let beam_cfg = cfg.stimulus.per_beam(spacing);
-    let bearings: Vec<f32> = (0..cfg.lidar.beams).map(|i| cfg.lidar.bearing(i)).collect();
-    let blocks = cfg.visual.gist.blocks;
-    let sector_width = cfg.camera.fov_deg.to_radians() / blocks as f32;
-    let sectors: Vec<(f32, f32)> = (0..blocks)
-        .map(|c| {
-            let centre = cfg
-                .camera
-                .column_bearing((c as f32 + 0.5) * cfg.camera.width as f32 / blocks as f32);
-            (centre, 0.5 * sector_width)
-        })
-        .collect();
-    let near = cfg.camera.near_distance(1.0 / blocks as f32);
-    let mut trajectory = vec![pose];
-    let mut fields = Vec::new();
-    let (mut time, mut length) = (0.0f32, 0.0f32);
-    let outcome = loop {
-        let to_goal = [world.goal[0] - pose[0], world.goal[1] - pose[1]];
-        let distance = to_goal[0].hypot(to_goal[1]);
-        if distance < cfg.goal_tolerance {
-            break Outcome::Reached;
-        }
-        if time >= cfg.max_time {
-            break Outcome::Timeout;
-        }
-        let ranges = cfg.lidar.scan(world, pose, &mut rng);
-        let (near_ranges, near_bearings): (Vec<f32>, Vec<f32>) = ranges
-            .iter()
-            .zip(&bearings)
-            .filter(|(r, _)| **r < cfg.lidar.max_range)
-            .map(|(r, b)| (*r, *b))
-            .unzip();
-        // The field is allocentric — neuron i is the world heading 2πi/N — so a peak stays put
-        // while the robot turns toward it; sensor bearings are rotated into the world frame.
-        let world_bearings: Vec<f32> = near_bearings.iter().map(|b| b + pose[2]).collect();
-        let mut obstacle = obstacle_stimulus(&near_ranges, &world_bearings, &beam_cfg, n)?;
-        if mode == Mode::Fusion {
-            let engine =
-                gist.ok_or_else(|| Error::config("mode", "fusion", "needs a GIST engine"))?;
-            let view = cfg.camera.render(world, pose);
-            let features = sector_features(&engine.describe(&view)?, blocks);
-            let likelihood = model.predict(&features, &cfg.visual);
-            let world_sectors: Vec<(f32, f32)> =
-                sectors.iter().map(|&(c, h)| (c + pose[2], h)).collect();
-            let visual = visual_stimulus(&likelihood, &world_sectors, cfg.visual.gain, n);
-            // Fusion by the larger inhibition, not the sum: where the LIDAR already sees an
-            // obstacle the camera adds nothing, so fusion cannot make the robot shy of what
-            // LIDAR alone handles.
-            for (o, v) in obstacle.iter_mut().zip(&visual) {
-                *o = o.max(*v);
-            }
-            // The LIDAR teaches: is a beam inside the sector closer than the bottom row's reach?
-            let blocked: Vec<bool> = sectors
-                .iter()
-                .map(|&(c, half)| {
-                    ranges
-                        .iter()
-                        .zip(&bearings)
-                        .any(|(r, b)| angle_diff(*b, c).abs() <= half && *r < near)
-                })
-                .collect();
-            model.learn(&features, &blocked, cfg.visual.learning_rate);
-        }
-        let target = to_goal[1].atan2(to_goal[0]);
-        let mut s = combined(&target_stimulus(target, &cfg.stimulus, n), &obstacle);
-        for (i, si) in s.iter_mut().enumerate() {
-            let h = angle_diff(i as f32 * std::f32::consts::TAU / n as f32, pose[2]);
-            if h.abs() > std::f32::consts::FRAC_PI_2 {
-                *si -= cfg.rear_inhibition;
-            }
-        }
+    let mut robot = Robot::new(world, cfg, mode, std::mem::take(model), seed, record_field);
+    while !robot.done() {
+        let s = robot.sense(gist)?;
         field.step(&s, cfg.field_steps)?;
-        let (peak_index, heading) = field.peak(0);
-        // φ_F relative to where the robot points.
-        let heading = angle_diff(heading, pose[2]);
-        if record_field {
-            fields.push(field.field(0).to_vec());
-        }
-        let (nearest, nearest_bearing) =
-            ranges
-                .iter()
-                .zip(&bearings)
-                .fold((f32::INFINITY, 0.0), |best, (r, b)| {
-                    if *r < best.0 {
-                        (*r, *b)
-                    } else {
-                        best
-                    }
-                });
-        let v = velocity(
-            target_velocity(distance, &cfg.stimulus),
-            obstacle_velocity(heading, nearest, nearest_bearing, &cfg.stimulus),
-            field.field(0)[peak_index],
-        ) * heading.cos().max(0.0);
-        let omega = (cfg.turn_gain * heading).clamp(-cfg.max_turn_rate, cfg.max_turn_rate);
-        // Unicycle, integrated in sub-steps; the collision test is exact at each.
-        let substeps = (cfg.control_period / cfg.substep).ceil().max(1.0) as usize;
-        let h = cfg.control_period / substeps as f32;
-        let mut collided = false;
-        for _ in 0..substeps {
-            let before = [pose[0], pose[1]];
-            pose[0] += v * pose[2].cos() * h;
-            pose[1] += v * pose[2].sin() * h;
-            pose[2] = angle_diff(pose[2] + omega * h, 0.0);
-            length += (pose[0] - before[0]).hypot(pose[1] - before[1]);
-            if world.collides([pose[0], pose[1]]) {
-                collided = true;
-                break;
+        robot.act(field.field(0));
+    }
+    let (episode, learned) = robot.finish();
+    *model = learned;
+    Ok(episode)
+}
+
+/// Where a batch of episodes keeps its fields.
+pub enum Fields {
+    /// [`FieldBatch`] on CPU threads.
+    Cpu(FieldBatch),
+    /// [`crate::gpu::dnf::GpuFieldBatch`]: one dispatch steps every episode's field.
+    Gpu(crate::gpu::dnf::GpuFieldBatch),
+}
+
+/// Runs many episodes in lockstep: every control period, all robots sense in parallel, one
+/// batched call steps all their fields (B = robots, one GPU dispatch chain on the GPU), and
+/// all act. Finished robots' fields idle at rest (zero stimulus is refused by nothing and
+/// costs the same as any). Returns the episodes in order.
+pub fn run_lockstep(
+    mut robots: Vec<Robot<'_>>,
+    fields: &mut Fields,
+    gist: Option<&GistEngine>,
+    progress: impl Fn() + Sync,
+) -> Result<Vec<Episode>> {
+    use rayon::prelude::*;
+    let Some(first) = robots.first() else {
+        return Ok(Vec::new());
+    };
+    let (n, steps) = (first.cfg.field.neurons, first.cfg.field_steps);
+    let b = robots.len();
+    let mut stimulus = vec![0.0f32; b * n];
+    let mut finished = vec![false; b];
+    loop {
+        let active: Vec<bool> = robots.iter_mut().map(|r| !r.done()).collect();
+        for (i, &a) in active.iter().enumerate() {
+            if !a && !finished[i] {
+                finished[i] = true;
+                progress();
             }
         }
-        time += cfg.control_period;
-        trajectory.push(pose);
-        if collided {
-            break Outcome::Collision;
+        if !active.iter().any(|&a| a) {
+            break;
         }
-    };
-    Ok(Episode {
-        outcome,
-        time,
-        path_length: length,
-        position_error_std: deviation_std(world, &trajectory),
-        trajectory,
-        field: fields,
-    })
+        robots
+            .par_iter_mut()
+            .zip(stimulus.par_chunks_mut(n))
+            .zip(active.par_iter())
+            .try_for_each(|((robot, s), &a)| -> Result<()> {
+                if a {
+                    s.copy_from_slice(&robot.sense(gist)?);
+                } else {
+                    s.fill(0.0);
+                }
+                Ok(())
+            })?;
+        let activations: Vec<f32> = match fields {
+            Fields::Cpu(f) => {
+                f.step(&stimulus, steps)?;
+                f.u.clone()
+            }
+            Fields::Gpu(f) => {
+                f.step(&stimulus, steps)?;
+                f.read()?
+            }
+        };
+        robots
+            .par_iter_mut()
+            .zip(activations.par_chunks(n))
+            .zip(active.par_iter())
+            .for_each(|((robot, u), &a)| {
+                if a {
+                    robot.act(u);
+                }
+            });
+    }
+    Ok(robots.into_iter().map(|r| r.finish().0).collect())
 }
 
 /// Standard deviation of the distance from each pose to the start–goal segment.

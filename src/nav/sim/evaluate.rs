@@ -5,13 +5,17 @@
 //! robot that has driven a little), then every evaluation episode starts from a copy of it and
 //! keeps learning — so episodes are independent, run in parallel and are reproducible.
 
-use rayon::prelude::*;
+use std::sync::Arc;
+
 use serde::Serialize;
 
-use super::episode::{run, Episode, Mode, NavConfig, Outcome};
+use super::episode::{run, run_lockstep, Episode, Fields, Mode, NavConfig, Outcome, Robot};
 use super::visual::VisualObstacleModel;
 use super::world::World;
 use crate::error::Result;
+use crate::gpu::dnf::GpuFieldBatch;
+use crate::gpu::GpuContext;
+use crate::nav::dnf::FieldBatch;
 use crate::nav::gist::GistEngine;
 
 /// Figures of one mode over a set of episodes.
@@ -103,37 +107,46 @@ pub fn train_visual_model(
     Ok(model)
 }
 
-/// Runs every episode in both modes; `worlds` maps an episode index to its world (so callers
-/// can make every obstacle visible for the control set). `progress` is called once per
-/// finished episode.
+/// The fields of `count` lockstep episodes: on the CPU, or on the GPU when `gpu` is given.
+pub fn fields(cfg: &NavConfig, count: usize, gpu: Option<&Arc<GpuContext>>) -> Result<Fields> {
+    Ok(match gpu {
+        Some(ctx) => Fields::Gpu(GpuFieldBatch::new(ctx.clone(), cfg.field.clone(), count)?),
+        None => Fields::Cpu(FieldBatch::new(cfg.field.clone(), count)?),
+    })
+}
+
+/// Runs every episode in both modes, all episodes of a mode in lockstep with one batched
+/// field (B = episodes; on the GPU when `gpu` is given); `worlds` maps an episode index to
+/// its world (so callers can make every obstacle visible for the control set). `progress` is
+/// called once per finished episode.
 pub fn compare(
     cfg: &NavConfig,
     gist: &GistEngine,
     model: &VisualObstacleModel,
     settings: &EvalSettings,
-    worlds: impl Fn(usize) -> World + Sync,
+    worlds: impl Fn(usize) -> World,
+    gpu: Option<&Arc<GpuContext>>,
     progress: impl Fn() + Sync,
 ) -> Result<Comparison> {
+    let worlds: Vec<World> = (0..settings.episodes).map(worlds).collect();
     let mut summaries = Vec::new();
     for mode in [Mode::Laser, Mode::Fusion] {
-        let episodes: Vec<Episode> = (0..settings.episodes)
-            .into_par_iter()
-            .map(|k| {
-                let mut own = model.clone();
-                let world = worlds(k);
-                let e = run(
-                    &world,
+        let robots = worlds
+            .iter()
+            .enumerate()
+            .map(|(k, w)| {
+                Robot::new(
+                    w,
                     cfg,
                     mode,
-                    &mut own,
-                    Some(gist),
+                    model.clone(),
                     settings.seed.wrapping_add(k as u64),
                     false,
-                );
-                progress();
-                e
+                )
             })
-            .collect::<Result<_>>()?;
+            .collect();
+        let mut batch = fields(cfg, settings.episodes, gpu)?;
+        let episodes = run_lockstep(robots, &mut batch, Some(gist), &progress)?;
         summaries.push(summarise(&episodes));
     }
     let fusion = summaries.pop().expect("two modes");

@@ -3,13 +3,16 @@
 //! candidate drives the same random worlds, and candidates are ranked by success rate minus
 //! half the collision rate.
 
-use rayon::prelude::*;
+use std::sync::Arc;
+
 use serde::Serialize;
 
-use super::episode::{run, Mode, NavConfig};
-use super::evaluate::{evaluation_world, summarise, EvalSettings, ModeSummary};
+use super::episode::{run_lockstep, Mode, NavConfig, Robot};
+use super::evaluate::{evaluation_world, fields, summarise, EvalSettings, ModeSummary};
 use super::visual::VisualObstacleModel;
+use super::world::World;
 use crate::error::Result;
+use crate::gpu::GpuContext;
 use crate::nav::dnf::Interaction;
 use crate::nav::gist::GistEngine;
 use crate::synth::Rng;
@@ -105,8 +108,12 @@ pub fn sweep(
     mode: Mode,
     settings: &EvalSettings,
     samples: usize,
+    gpu: Option<&Arc<GpuContext>>,
     progress: impl Fn() + Sync,
 ) -> Result<Vec<SweepRow>> {
+    let worlds: Vec<World> = (0..settings.episodes)
+        .map(|k| evaluation_world(settings, k))
+        .collect();
     let mut rng = Rng(settings.seed ^ 0x5EE9);
     let mut candidates = vec![Candidate::of(base)];
     candidates.extend((0..samples).map(|_| Candidate::sample(&mut rng)));
@@ -114,23 +121,22 @@ pub fn sweep(
     for candidate in candidates {
         let cfg = candidate.apply(base);
         cfg.validate()?;
-        let episodes = (0..settings.episodes)
-            .into_par_iter()
-            .map(|k| {
-                let mut own = model.clone();
-                let e = run(
-                    &evaluation_world(settings, k),
+        let robots = worlds
+            .iter()
+            .enumerate()
+            .map(|(k, w)| {
+                Robot::new(
+                    w,
                     &cfg,
                     mode,
-                    &mut own,
-                    Some(gist),
+                    model.clone(),
                     settings.seed.wrapping_add(k as u64),
                     false,
-                );
-                progress();
-                e
+                )
             })
-            .collect::<Result<Vec<_>>>()?;
+            .collect();
+        let mut batch = fields(&cfg, settings.episodes, gpu)?;
+        let episodes = run_lockstep(robots, &mut batch, Some(gist), &progress)?;
         let summary = summarise(&episodes);
         let score =
             summary.success_rate - 0.5 * summary.collisions as f64 / summary.episodes.max(1) as f64;
