@@ -330,9 +330,8 @@ pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
         &base,
         &gist,
         &model,
-        cmd.mode,
+        (cmd.mode, cmd.samples),
         &settings,
-        cmd.samples,
         field_gpu(&cmd.field_backend)?.as_ref(),
         || bar.inc(1),
     )?;

@@ -99,15 +99,14 @@ impl Candidate {
     }
 }
 
-/// Runs `samples` random candidates plus the base configuration on the same worlds; rows
-/// come back best first. `progress` is called once per finished episode.
+/// Runs `samples` random candidates plus the base configuration in `mode` on the same worlds;
+/// rows come back best first. `progress` is called once per finished episode.
 pub fn sweep(
     base: &NavConfig,
     gist: &GistEngine,
     model: &VisualObstacleModel,
-    mode: Mode,
+    (mode, samples): (Mode, usize),
     settings: &EvalSettings,
-    samples: usize,
     gpu: Option<&Arc<GpuContext>>,
     progress: impl Fn() + Sync,
 ) -> Result<Vec<SweepRow>> {
