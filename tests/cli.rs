@@ -499,6 +499,11 @@ fn nav_and_nav_eval_run_from_the_command_line() {
         }
     }
     assert_eq!(v["laser"]["episodes"], 3);
+    assert_eq!(
+        v.as_object().unwrap().len(),
+        2,
+        "exactly laser and fusion: {v}"
+    );
     let out = steernav()
         .args([
             "nav-sweep",
