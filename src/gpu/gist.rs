@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::util::{read_staging, staging, storage, storage_init, uniform};
+use super::util::{bind_at, read_staging, staging, storage, storage_init, uniform};
 use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::image::Frame;
@@ -220,18 +220,7 @@ impl GpuGist {
             let readback = staging(device, "gist readback", c * f * k * k * 4);
             let p = &self.ctx.pipelines().gist;
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-                let entries: Vec<wgpu::BindGroupEntry> = entries
-                    .iter()
-                    .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                        binding: *binding,
-                        resource: buffer.as_entire_binding(),
-                    })
-                    .collect();
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: None,
-                    layout: &pipeline.get_bind_group_layout(0),
-                    entries: &entries,
-                })
+                bind_at(device, pipeline, entries)
             };
             let groups = vec![
                 bind(
@@ -361,18 +350,7 @@ impl GpuGist {
         let readback = staging(device, "gist readback", c * f * k * k * 4);
         let p = &self.ctx.pipelines().gist_fft;
         let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
-            let entries: Vec<wgpu::BindGroupEntry> = entries
-                .iter()
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: buffer.as_entire_binding(),
-                })
-                .collect();
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: None,
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
+            bind_at(device, pipeline, entries)
         };
         let radices = radices(self.n).expect("checked at construction");
         // Rows then columns; the stages ping-pong between two buffers, an even count, so the

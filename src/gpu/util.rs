@@ -77,6 +77,27 @@ pub fn bind(
     })
 }
 
+/// A bind group for group 0 of `pipeline` with each buffer at its given binding number (for
+/// entry points that use only some bindings of a shared shader module).
+pub fn bind_at(
+    device: &wgpu::Device,
+    pipeline: &wgpu::ComputePipeline,
+    entries: &[(u32, &wgpu::Buffer)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = entries
+        .iter()
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: buffer.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
 /// Maps the first `bytes` bytes of a staging buffer (after the submission that filled it),
 /// copies them out and unmaps.
 pub fn read_staging(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
