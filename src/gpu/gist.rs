@@ -197,20 +197,7 @@ impl GpuGist {
             );
             let c = capacity as u64;
             let device = &self.ctx.device;
-            let params = uniform(
-                device,
-                "gist params",
-                &Params {
-                    n: 0,
-                    m: 0,
-                    boundary: 0,
-                    filters: 0,
-                    blocks: 0,
-                    images: 0,
-                    inv_n2: 0.0,
-                    _pad: 0,
-                },
-            );
+            let params = uniform(device, "gist params", &Params::zeroed());
             let input = storage(device, "gist input", c * n * n * 4);
             let rows = storage(device, "gist rows", c * n * n * 8);
             let spectrum = storage(device, "gist spectrum", c * n * n * 8);
@@ -276,7 +263,6 @@ impl GpuGist {
         }
         let (n, m, filters, k) = (self.n, self.m, self.filters, self.blocks);
         let per = filters * k * k;
-        let boundary = self.cpu.config().boundary;
         let max_groups = self.ctx.limits.max_compute_workgroups_per_dimension as usize;
         let mut out = Vec::with_capacity(frames.len());
         let capacity = self.batch()?.capacity;
@@ -290,16 +276,7 @@ impl GpuGist {
                 )));
             }
             let queue = &ctx.queue;
-            let params = Params {
-                n: n as u32,
-                m: m as u32,
-                boundary: boundary as u32,
-                filters: filters as u32,
-                blocks: k as u32,
-                images: images as u32,
-                inv_n2: 1.0 / (n * n) as f32,
-                _pad: 0,
-            };
+            let params = self.params(images);
             queue.write_buffer(&batch.params, 0, bytemuck::bytes_of(&params));
             queue.write_buffer(&batch.input, 0, bytemuck::cast_slice(&chunk.concat()));
             let mut enc = ctx.device.create_command_encoder(&Default::default());
@@ -321,17 +298,45 @@ impl GpuGist {
                 }
             }
             let bytes = (images * per * 4) as u64;
-            enc.copy_buffer_to_buffer(&batch.windows, 0, &batch.readback, 0, Some(bytes));
-            queue.submit([enc.finish()]);
-            let data: Vec<f32> =
-                bytemuck::pod_collect_to_vec(&read_staging(&ctx.device, &batch.readback, bytes)?);
+            let data = submit_and_read(ctx, enc, &batch.windows, &batch.readback, bytes)?;
             out.extend(data.chunks(per).map(|d| d.to_vec()));
         }
         Ok(out)
     }
 }
 
+/// Copies the descriptors to the staging buffer, submits the batch and reads them back.
+fn submit_and_read(
+    ctx: &GpuContext,
+    mut enc: wgpu::CommandEncoder,
+    windows: &wgpu::Buffer,
+    readback: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<f32>> {
+    enc.copy_buffer_to_buffer(windows, 0, readback, 0, Some(bytes));
+    ctx.queue.submit([enc.finish()]);
+    Ok(bytemuck::pod_collect_to_vec(&read_staging(
+        &ctx.device,
+        readback,
+        bytes,
+    )?))
+}
+
 impl GpuGist {
+    /// The bank's parameters for a batch of `images`.
+    fn params(&self, images: usize) -> Params {
+        Params {
+            n: self.n as u32,
+            m: self.m as u32,
+            boundary: self.cpu.config().boundary as u32,
+            filters: self.filters as u32,
+            blocks: self.blocks as u32,
+            images: images as u32,
+            inv_n2: 1.0 / (self.n * self.n) as f32,
+            _pad: 0,
+        }
+    }
+
     fn fft_batch(&mut self) -> Result<()> {
         if self.fft.is_some() {
             return Ok(());
@@ -341,7 +346,7 @@ impl GpuGist {
         let capacity = (limit / (f * n * n * 8)).clamp(1, 16);
         let c = capacity;
         let device = &self.ctx.device;
-        let bank = uniform(device, "gist bank", &[0u32; 8]);
+        let bank = uniform(device, "gist bank", &Params::zeroed());
         let a = storage(device, "gist fft a", c * n * n * 8);
         let b = storage(device, "gist fft b", c * n * n * 8);
         let planes_c = storage(device, "gist fft c", c * f * n * n * 8);
@@ -408,7 +413,7 @@ impl GpuGist {
         self.fft_batch()?;
         let batch = self.fft.as_ref().expect("built above");
         let ctx = &self.ctx;
-        let (n, m, filters, k) = (self.n, self.m, self.filters, self.blocks);
+        let (n, filters, k) = (self.n, self.filters, self.blocks);
         let per = filters * k * k;
         let max_groups = ctx.limits.max_compute_workgroups_per_dimension as usize;
         let mut out = Vec::with_capacity(inputs.len());
@@ -420,16 +425,7 @@ impl GpuGist {
                 )));
             }
             let queue = &ctx.queue;
-            let bank = Params {
-                n: n as u32,
-                m: m as u32,
-                boundary: self.cpu.config().boundary as u32,
-                filters: filters as u32,
-                blocks: k as u32,
-                images: images as u32,
-                inv_n2: 1.0 / (n * n) as f32,
-                _pad: 0,
-            };
+            let bank = self.params(images);
             queue.write_buffer(&batch.bank, 0, bytemuck::bytes_of(&bank));
             for (buffer, _, stage) in &batch.forward {
                 let s = Stage {
@@ -477,10 +473,7 @@ impl GpuGist {
                 pass.dispatch_workgroups((images * per).div_ceil(64) as u32, 1, 1);
             }
             let bytes = (images * per * 4) as u64;
-            enc.copy_buffer_to_buffer(&batch.windows, 0, &batch.readback, 0, Some(bytes));
-            queue.submit([enc.finish()]);
-            let data: Vec<f32> =
-                bytemuck::pod_collect_to_vec(&read_staging(&ctx.device, &batch.readback, bytes)?);
+            let data = submit_and_read(ctx, enc, &batch.windows, &batch.readback, bytes)?;
             out.extend(data.chunks(per).map(|d| d.to_vec()));
         }
         Ok(out)

@@ -424,14 +424,17 @@ pub fn run_lockstep(
                 }
                 Ok(())
             })?;
-        let activations: Vec<f32> = match fields {
+        // The CPU fields are read in place; the GPU's come back in one readback.
+        let read_back;
+        let activations: &[f32] = match fields {
             Fields::Cpu(f) => {
                 f.step(&stimulus, steps)?;
-                f.u.clone()
+                &f.u
             }
             Fields::Gpu(f) => {
                 f.step(&stimulus, steps)?;
-                f.read()?
+                read_back = f.read()?;
+                &read_back
             }
         };
         robots

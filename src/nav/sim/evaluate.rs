@@ -131,27 +131,36 @@ pub fn compare(
     let worlds: Vec<World> = (0..settings.episodes).map(worlds).collect();
     let mut summaries = Vec::new();
     for mode in [Mode::Laser, Mode::Fusion] {
-        let robots = worlds
-            .iter()
-            .enumerate()
-            .map(|(k, w)| {
-                Robot::new(
-                    w,
-                    cfg,
-                    mode,
-                    model.clone(),
-                    settings.seed.wrapping_add(k as u64),
-                    false,
-                )
-            })
-            .collect();
-        let mut batch = fields(cfg, settings.episodes, gpu)?;
-        let episodes = run_lockstep(robots, &mut batch, Some(gist), &progress)?;
+        let episodes = run_worlds(&worlds, cfg, mode, model, settings, (gist, gpu), &progress)?;
         summaries.push(summarise(&episodes));
     }
     let fusion = summaries.pop().expect("two modes");
     let laser = summaries.pop().expect("two modes");
     Ok(Comparison { laser, fusion })
+}
+
+/// One episode per world in `mode`, all in lockstep with one batched field (on the GPU when
+/// given); episode k's sensor noise is seeded `settings.seed + k` and its robot starts from a
+/// copy of `model`.
+pub fn run_worlds(
+    worlds: &[World],
+    cfg: &NavConfig,
+    mode: Mode,
+    model: &VisualObstacleModel,
+    settings: &EvalSettings,
+    (gist, gpu): (&GistEngine, Option<&Arc<GpuContext>>),
+    progress: impl Fn() + Sync,
+) -> Result<Vec<Episode>> {
+    let robots = worlds
+        .iter()
+        .enumerate()
+        .map(|(k, w)| {
+            let seed = settings.seed.wrapping_add(k as u64);
+            Robot::new(w, cfg, mode, model.clone(), seed, false)
+        })
+        .collect();
+    let mut batch = fields(cfg, worlds.len(), gpu)?;
+    run_lockstep(robots, &mut batch, Some(gist), progress)
 }
 
 /// The evaluation worlds: world `k` of a run seeded `seed`.

@@ -7,8 +7,8 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::episode::{run_lockstep, Mode, NavConfig, Robot};
-use super::evaluate::{evaluation_world, fields, summarise, EvalSettings, ModeSummary};
+use super::episode::{Mode, NavConfig};
+use super::evaluate::{evaluation_world, run_worlds, summarise, EvalSettings, ModeSummary};
 use super::visual::VisualObstacleModel;
 use super::world::World;
 use crate::error::Result;
@@ -120,22 +120,7 @@ pub fn sweep(
     for candidate in candidates {
         let cfg = candidate.apply(base);
         cfg.validate()?;
-        let robots = worlds
-            .iter()
-            .enumerate()
-            .map(|(k, w)| {
-                Robot::new(
-                    w,
-                    &cfg,
-                    mode,
-                    model.clone(),
-                    settings.seed.wrapping_add(k as u64),
-                    false,
-                )
-            })
-            .collect();
-        let mut batch = fields(&cfg, settings.episodes, gpu)?;
-        let episodes = run_lockstep(robots, &mut batch, Some(gist), &progress)?;
+        let episodes = run_worlds(&worlds, &cfg, mode, model, settings, (gist, gpu), &progress)?;
         let summary = summarise(&episodes);
         let score =
             summary.success_rate - 0.5 * summary.collisions as f64 / summary.episodes.max(1) as f64;
