@@ -212,7 +212,7 @@ struct SettingsArgs {
     /// TOML file with detector settings (a [detector] table; see README); flags override it.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-    /// Number of steered orientations N, spread over [0°, 180°) [default: 8].
+    /// Number of steered orientations N, spread over [0°, 180°) [default: 12].
     #[arg(long, value_name = "N")]
     orientations: Option<usize>,
     /// Number of detection scales S (σ_D = 1.0 · 1.4^s) [default: 5].

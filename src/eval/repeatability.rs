@@ -24,7 +24,8 @@ fn inside(p: (f64, f64), size: (u32, u32), margin: f64) -> bool {
         && p.1 <= size.1 as f64 - 1.0 - margin
 }
 
-/// Points of each view inside the region both views see, and their one-to-one ground-truth
+/// Points of each view inside the region both views see (the point and its ground-truth image
+/// each at least `margin` inside their views), and their one-to-one ground-truth
 /// correspondences within ε (greedy by distance, so no point is counted twice).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Correspondences {
@@ -48,11 +49,20 @@ pub fn correspondences(
 ) -> Correspondences {
     let hinv = invert(h).expect("ground-truth homography is invertible");
     let projected: Vec<Option<(f64, f64)>> = p1.iter().map(|&(x, y)| project(h, x, y)).collect();
+    // A point counts when it and its ground-truth image both lie at least `margin` inside
+    // their views. Checking only the image (as a one-sided test would) keeps view-1 points
+    // near view 1's own border whose partners view 2 must leave out, so the region would
+    // differ between the views and swapping them would change the figure.
     let inside1: Vec<usize> = (0..p1.len())
-        .filter(|&i| projected[i].is_some_and(|q| inside(q, size2, margin)))
+        .filter(|&i| {
+            inside(p1[i], size1, margin) && projected[i].is_some_and(|q| inside(q, size2, margin))
+        })
         .collect();
     let inside2: Vec<usize> = (0..p2.len())
-        .filter(|&j| project(&hinv, p2[j].0, p2[j].1).is_some_and(|q| inside(q, size1, margin)))
+        .filter(|&j| {
+            inside(p2[j], size2, margin)
+                && project(&hinv, p2[j].0, p2[j].1).is_some_and(|q| inside(q, size1, margin))
+        })
         .collect();
     let mut candidates: Vec<(f64, usize, usize)> = Vec::new();
     for &i in &inside1 {
@@ -135,5 +145,20 @@ mod tests {
         let b = vec![(15.0, 10.0), (2.0, 30.0)]; // the second comes from outside view 1
         let r = repeatability(&a, (50, 50), &b, (50, 50), &h, 2.0, 0.0);
         assert_eq!((r.count1, r.count2, r.matches), (1, 1, 1));
+    }
+
+    #[test]
+    fn the_common_region_is_the_same_from_both_sides() {
+        // View 2 is view 1 shifted 20 px right on a wider canvas. The point 3 px from view 1's
+        // left border lands well inside view 2, but its partner in view 2 sits 3 px from where
+        // view 1's border maps: with a 10-px margin neither may count, whichever view is first.
+        let h = [1.0, 0.0, 20.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let hinv = [1.0, 0.0, -20.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let a = vec![(3.0, 25.0), (25.0, 25.0)];
+        let b = vec![(23.0, 25.0), (45.0, 25.0)];
+        let r = repeatability(&a, (50, 50), &b, (90, 50), &h, 2.0, 10.0);
+        assert_eq!((r.count1, r.count2, r.matches), (1, 1, 1));
+        let back = repeatability(&b, (90, 50), &a, (50, 50), &hinv, 2.0, 10.0);
+        assert_eq!((back.count1, back.count2, back.matches), (1, 1, 1));
     }
 }

@@ -23,6 +23,8 @@ pub struct Cluster {
     pub y: f32,
     /// Strongest member response.
     pub response: f32,
+    /// The ranking key: the strongest member response weighted by its scale's `rank_weight`.
+    pub strength: f32,
     /// Scale index with the largest summed member response.
     pub scale_index: usize,
     /// Orientation index with the largest summed member response.
@@ -38,6 +40,7 @@ struct Stats {
     sx: f64,
     sy: f64,
     max: f32,
+    strength: f32,
     count: usize,
     by_scale: Vec<f64>,
     by_orientation: Vec<f64>,
@@ -50,17 +53,21 @@ impl Stats {
             sx: 0.0,
             sy: 0.0,
             max: f32::MIN,
+            strength: f32::MIN,
             count: 0,
             by_scale: vec![0.0; scales],
             by_orientation: vec![0.0; orientations],
         }
     }
-    fn add(&mut self, c: &Candidate) {
+    fn add(&mut self, c: &Candidate, rank_weights: &[f32]) {
         let w = c.response.max(1e-20) as f64;
         self.wsum += w;
         self.sx += w * c.x as f64;
         self.sy += w * c.y as f64;
         self.max = self.max.max(c.response);
+        self.strength = self
+            .strength
+            .max(c.response * rank_weights[c.scale_index()]);
         self.count += 1;
         self.by_scale[c.scale_index()] += w;
         self.by_orientation[c.orientation_index()] += w;
@@ -70,6 +77,7 @@ impl Stats {
         self.sx += o.sx;
         self.sy += o.sy;
         self.max = self.max.max(o.max);
+        self.strength = self.strength.max(o.strength);
         self.count += o.count;
         for (a, b) in self.by_scale.iter_mut().zip(&o.by_scale) {
             *a += b;
@@ -257,10 +265,11 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         centres = moved.into_iter().flatten().collect();
     }
     let (ns, no) = (plan.scales.len(), plan.orientations.len());
+    let rank_weights: Vec<f32> = plan.scales.iter().map(|s| s.rank_weight).collect();
     let mut stats = vec![Stats::new(ns, no); centres.len()];
     for (c, a) in candidates.iter().zip(&assignment) {
         if let Some(i) = *a {
-            stats[i].add(c);
+            stats[i].add(c, &rank_weights);
         }
     }
     stats.retain(|s| s.count > 0);
@@ -295,6 +304,7 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
             .for_each(|(d, &p)| *d = d.min(dist2(p, c)));
     }
     let (ns, no) = (plan.scales.len(), plan.orientations.len());
+    let rank_weights: Vec<f32> = plan.scales.iter().map(|s| s.rank_weight).collect();
     let mut stats = Vec::new();
     for _ in 0..10 {
         let assignment: Vec<usize> = points
@@ -311,7 +321,7 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         stats = vec![Stats::new(ns, no); centres.len()];
         let mut plain = vec![(0.0f64, 0.0f64, 0usize); centres.len()];
         for ((c, &a), p) in candidates.iter().zip(&assignment).zip(&points) {
-            stats[a].add(c);
+            stats[a].add(c, &rank_weights);
             plain[a].0 += p.0 as f64;
             plain[a].1 += p.1 as f64;
             plain[a].2 += 1;
@@ -339,8 +349,8 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
 fn merge_close(mut stats: Vec<Stats>, r: f32, limit: usize) -> Vec<Cluster> {
     stats.sort_by(|a, b| {
         let (ca, cb) = (a.centre(), b.centre());
-        b.max
-            .total_cmp(&a.max)
+        b.strength
+            .total_cmp(&a.strength)
             .then(ca.1.total_cmp(&cb.1))
             .then(ca.0.total_cmp(&cb.0))
     });
@@ -370,6 +380,7 @@ fn merge_close(mut stats: Vec<Stats>, r: f32, limit: usize) -> Vec<Cluster> {
             x,
             y,
             response: total.max,
+            strength: total.strength,
             scale_index: argmax(&total.by_scale),
             orientation_index: argmax(&total.by_orientation),
             members: total.count,

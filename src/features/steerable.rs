@@ -134,6 +134,9 @@ pub struct ScalePlan {
     pub window: Kernel1d,
     /// Border margin in pixels: no candidate closer to the border.
     pub margin: u32,
+    /// Factor applied to this scale's responses when clusters are ranked:
+    /// (σ_e / σ_e of the finest scale)^(4(p_r − p)) (see `rank_normalization`).
+    pub rank_weight: f32,
     /// Sampling step of this scale's grid (1, 2, 4 …). The derivative planes are sampled every
     /// `step` pixels and the products, their window blur, the responses and the suppression
     /// all live on that grid: the window integral of eq 7 becomes a sum over the grid's
@@ -234,6 +237,8 @@ impl HarrisPlan {
                         config.truncate,
                     ),
                     margin: config.margin(s),
+                    rank_weight: (sigma_e / config.sigma_e(0))
+                        .powf(4.0 * (config.rank_normalization - config.scale_normalization)),
                     step: grid_step(config.sigma_i(s)),
                 }
             })
