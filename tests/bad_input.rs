@@ -96,6 +96,8 @@ fn non_finite_and_out_of_range_config_values_are_refused() {
         "scales = 99",
         "scale_step = 1.0",
         "harris_k = nan",
+        "rank_normalization = -1.0",
+        "rank_normalization = nan",
         "max_keypoints = 0",
     ] {
         let e = DetectorConfig::from_toml_str(text).unwrap_err();

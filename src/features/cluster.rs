@@ -446,6 +446,23 @@ mod tests {
     }
 
     #[test]
+    fn ranking_uses_its_own_scale_normalisation() {
+        // A coarse corner with the larger scale-normalised response and a fine one.
+        let mut c = vec![cand(10.0, 10.0, 2.0, 2, 0), cand(40.0, 40.0, 1.5, 0, 0)];
+        crate::features::sort_candidates(&mut c);
+        let mut cfg = DetectorConfig::default();
+        let m = merge(&c, &HarrisPlan::new(&cfg));
+        // p_r = 0.5 < p = 2: the coarse response is weighted by (σ_e2/σ_e0)^(−6) < 0.75.
+        assert_eq!((m[0].x, m[0].response), (40.0, 1.5));
+        assert_eq!((m[1].x, m[1].response), (10.0, 2.0));
+        assert!(m[1].strength < 0.75 * m[1].response && m[0].strength == 1.5);
+        // Ranking with the selection's own normalisation restores the raw order.
+        cfg.rank_normalization = cfg.scale_normalization;
+        let m = merge(&c, &HarrisPlan::new(&cfg));
+        assert_eq!((m[0].x, m[1].x), (10.0, 40.0));
+    }
+
+    #[test]
     fn merge_is_covariant_with_translation_and_kmeans_pp_is_deterministic() {
         let mut cfg = DetectorConfig::default();
         let pts: Vec<Candidate> = (0..200)
