@@ -1,8 +1,8 @@
 // Non-maximum suppression in space (3x3) and across adjacent scales (3x3 in each, around the
-// nearest sample of their grid), response threshold, border margin, sub-pixel parabola fit, and
+// nearest sample of their grid), response threshold, border margin, sub-pixel quadratic fit, and
 // compaction of the survivors with an atomic counter (paper section 2.2.2: local maxima of R
 // in scale and space). Each scale lives on its own grid (sample (i, j) at pixel (i, j)*step).
-// CPU twin: suppress and parabola_offset in src/features/harris.rs.
+// CPU twin: suppress, peak_offset and parabola_offset in src/features/harris.rs.
 
 struct Params {
     width: u32,       // this scale's grid
@@ -51,6 +51,24 @@ fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
         return clamp(0.5 * (l - r) / den, -0.5, 0.5);
     }
     return 0.0;
+}
+
+// CPU twin: peak_offset. The quadratic's vertex with the cross term; one parabola per axis
+// when the fitted surface is not a cap.
+fn peak_offset(i: u32, w: u32) -> vec2<f32> {
+    let c = cur[i];
+    let dx = 0.5 * (cur[i + 1u] - cur[i - 1u]);
+    let dy = 0.5 * (cur[i + w] - cur[i - w]);
+    let dxx = cur[i + 1u] - 2.0 * c + cur[i - 1u];
+    let dyy = cur[i + w] - 2.0 * c + cur[i - w];
+    let dxy = 0.25 * (cur[i + w + 1u] - cur[i + w - 1u] - cur[i - w + 1u] + cur[i - w - 1u]);
+    let det = dxx * dyy - dxy * dxy;
+    if (det > 0.0 && dxx < 0.0) {
+        return clamp(vec2<f32>((dxy * dy - dyy * dx) / det, (dxy * dx - dxx * dy) / det),
+                     vec2<f32>(-0.5), vec2<f32>(0.5));
+    }
+    return vec2<f32>(parabola_offset(cur[i - 1u], c, cur[i + 1u]),
+                     parabola_offset(cur[i - w], c, cur[i + w]));
 }
 
 // Largest value of the 3x3 neighbourhood around pixel (px, py) on the grid of the previous
@@ -114,8 +132,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             keep = false;
         }
         if (keep) {
-            let ox = parabola_offset(cur[i - 1u], v, cur[i + 1u]);
-            let oy = parabola_offset(cur[i - w], v, cur[i + w]);
+            let o = peak_offset(i, w);
+            let ox = o.x;
+            let oy = o.y;
             let slot = atomicAdd(&counter, 1u);
             if (slot < settings.capacity) {
                 let g = f32(params.step);

@@ -381,8 +381,11 @@ pub fn suppress(
                     let keep = (s == 0 || across(s - 1, px, py, v))
                         && (s + 1 == scales || across(s + 1, px, py, v));
                     if keep {
-                        let ox = parabola_offset(mid[x - 1], v, mid[x + 1]);
-                        let oy = parabola_offset(up[x], v, down[x]);
+                        let (ox, oy) = peak_offset(
+                            [up[x - 1], up[x], up[x + 1]],
+                            [mid[x - 1], v, mid[x + 1]],
+                            [down[x - 1], down[x], down[x + 1]],
+                        );
                         out.push(Candidate {
                             x: (x as f32 + ox) * g as f32,
                             y: (y as f32 + oy) * g as f32,
@@ -397,6 +400,31 @@ pub fn suppress(
         .collect()
 }
 
+/// Sub-pixel offset of a 3×3 maximum (rows `up`, `mid`, `down`; the centre is `mid[1]`):
+/// the vertex of the quadratic fitted with central differences, cross term included, so the
+/// peak of a corner lying obliquely to the pixel axes is found where it is rather than
+/// projected onto each axis. Falls back to one parabola per axis when the fitted surface is
+/// not a cap. Each component within ±0.5.
+#[inline]
+pub fn peak_offset(up: [f32; 3], mid: [f32; 3], down: [f32; 3]) -> (f32, f32) {
+    let c = mid[1];
+    let (dx, dy) = (0.5 * (mid[2] - mid[0]), 0.5 * (down[1] - up[1]));
+    let (dxx, dyy) = (mid[2] - 2.0 * c + mid[0], down[1] - 2.0 * c + up[1]);
+    let dxy = 0.25 * (down[2] - down[0] - up[2] + up[0]);
+    let det = dxx * dyy - dxy * dxy;
+    if det > 0.0 && dxx < 0.0 {
+        (
+            ((dxy * dy - dyy * dx) / det).clamp(-0.5, 0.5),
+            ((dxy * dx - dxx * dy) / det).clamp(-0.5, 0.5),
+        )
+    } else {
+        (
+            parabola_offset(mid[0], c, mid[2]),
+            parabola_offset(up[1], c, down[1]),
+        )
+    }
+}
+
 /// Offset of the vertex of the parabola through (−1, l), (0, c), (1, r), within ±0.5.
 #[inline]
 pub fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
@@ -405,5 +433,47 @@ pub fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
         (0.5 * (l - r) / den).clamp(-0.5, 0.5)
     } else {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Samples f(x, y) = 10 − (a(x−x0)² + 2b(x−x0)(y−y0) + c(y−y0)²) on the 3×3 grid.
+    fn cap(x0: f32, y0: f32, a: f32, b: f32, c: f32) -> [[f32; 3]; 3] {
+        let f = |x: f32, y: f32| {
+            let (u, v) = (x - x0, y - y0);
+            10.0 - (a * u * u + 2.0 * b * u * v + c * v * v)
+        };
+        [-1.0f32, 0.0, 1.0].map(|y| [-1.0f32, 0.0, 1.0].map(|x| f(x, y)))
+    }
+
+    #[test]
+    fn the_quadratic_fit_finds_an_oblique_peak() {
+        // An elongated peak at 45° (strong cross term): the fit recovers it exactly, while one
+        // parabola per axis lands elsewhere.
+        let [up, mid, down] = cap(0.3, -0.2, 1.0, 0.8, 1.0);
+        let (ox, oy) = peak_offset(up, mid, down);
+        assert!(
+            (ox - 0.3).abs() < 1e-5 && (oy + 0.2).abs() < 1e-5,
+            "{ox} {oy}"
+        );
+        let per_axis = (
+            parabola_offset(mid[0], mid[1], mid[2]),
+            parabola_offset(up[1], mid[1], down[1]),
+        );
+        assert!((per_axis.0 - 0.3).abs() > 0.1, "{per_axis:?}");
+        // A saddle is not a cap: per-axis parabolas, within ±0.5.
+        let [up, mid, down] = cap(0.1, 0.1, 1.0, 2.0, 1.0);
+        let (ox, oy) = peak_offset(up, mid, down);
+        assert!(ox.abs() <= 0.5 && oy.abs() <= 0.5);
+        assert_eq!(
+            (ox, oy),
+            (
+                parabola_offset(mid[0], mid[1], mid[2]),
+                parabola_offset(up[1], mid[1], down[1])
+            )
+        );
     }
 }
