@@ -7,6 +7,10 @@
 //! strongest first, with each mean confined to its neighbourhood (assignment radius 1.5·r);
 //! stage 2 merges the means that end up within r of a stronger one. `kmeans-pp` is the literal
 //! reading (k-means++ random starts over all candidates), kept for comparison.
+//!
+//! Clusters are ranked (and cut to `max_keypoints`) by their strength: the strongest member
+//! response times its scale's `rank_weight`, so ranking across scales has its own
+//! normalisation, apart from the one that selected each corner's scale.
 
 use rayon::prelude::*;
 

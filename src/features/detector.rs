@@ -64,7 +64,7 @@ pub struct HarrisRun {
 /// The result of detecting on one frame.
 #[derive(Clone, Debug)]
 pub struct Detection {
-    /// Keypoints, strongest first.
+    /// Keypoints, highest rank first (response weighted by the ranking normalisation).
     pub keypoints: Vec<Keypoint>,
     /// Number of Harris candidates that were merged.
     pub candidates: usize,
