@@ -308,8 +308,8 @@ struct SharedOut(*mut f32);
 unsafe impl Sync for SharedOut {}
 
 /// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each, around the
-/// nearest sample of their grid), threshold, border margin and a parabola fit per axis for the
-/// sub-pixel position. Candidates come out in pixel coordinates.
+/// nearest sample of their grid), threshold, border margin and the 3×3 quadratic fit
+/// ([`peak_offset`]) for the sub-pixel position. Candidates come out in pixel coordinates.
 pub fn suppress(
     plan: &HarrisPlan,
     responses: &[Vec<f32>],
