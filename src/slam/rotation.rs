@@ -20,7 +20,7 @@ fn vector_part(q: &Quat) -> Vector3<f64> {
     Vector3::new(q[1], q[2], q[3])
 }
 
-/// Skew-symmetric matrix [v]× with [v]× a = v × a.
+/// Skew-symmetric matrix \[v\]× with \[v\]× a = v × a.
 pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }
