@@ -227,13 +227,9 @@ struct SettingsArgs {
     /// How detections of all orientations and scales are merged [default: covariant].
     #[arg(long, value_enum)]
     merge: Option<MergeMode>,
-    /// Absolute floor on a candidate's scale-normalised Harris response [default: 1e-11].
+    /// Minimum scale-normalised Harris response of a candidate [default: 1e-8].
     #[arg(long, value_name = "R")]
     threshold: Option<f32>,
-    /// Drop candidates weaker than this fraction of the image's strongest one; 0 turns it off
-    /// [default: 1e-3].
-    #[arg(long, value_name = "F")]
-    relative_threshold: Option<f32>,
 }
 
 impl SettingsArgs {
@@ -265,9 +261,6 @@ impl SettingsArgs {
         }
         if let Some(v) = self.threshold {
             cfg.threshold = v;
-        }
-        if let Some(v) = self.relative_threshold {
-            cfg.relative_threshold = v;
         }
         cfg.validate()?;
         Ok(cfg)

@@ -68,17 +68,8 @@ pub struct DetectorConfig {
     pub gamma: f32,
     /// Harris constant k of eq 8. Default 0.04.
     pub harris_k: f32,
-    /// Absolute floor on the scale-normalised Harris response of a candidate, applied in the
-    /// suppression on both backends. Default 1e-11: five times the strongest response of a
-    /// flat grey image with ±2 grey levels of uniform noise (2e-12 measured; ±1 level gives
-    /// 2e-13), so noise alone gives no keypoints while dim and blurred images keep theirs;
-    /// `relative_threshold` does the rest.
+    /// Minimum scale-normalised Harris response of a candidate. Default 1e-8.
     pub threshold: f32,
-    /// Candidates weaker than this fraction of the image's strongest candidate are dropped
-    /// before the merge. Harris responses scale with contrast⁴, so a fixed floor alone either
-    /// starves dim or blurred images or floods sharp ones with candidates the merge must
-    /// cluster for nothing. Default 1e-3; 0 turns it off.
-    pub relative_threshold: f32,
     /// Kernels are truncated at this many standard deviations. Default 4.0: at 3σ the
     /// square support of the separable derivative kernels cut off enough tail to make their
     /// responses measurably less rotation-invariant.
@@ -109,8 +100,7 @@ impl Default for DetectorConfig {
             rank_normalization: 0.5,
             gamma: 1.5,
             harris_k: 0.04,
-            threshold: 1e-11,
-            relative_threshold: 1e-3,
+            threshold: 1e-8,
             truncate: 4.0,
             merge: MergeMode::Covariant,
             merge_radius: 2.0,
@@ -172,13 +162,6 @@ impl DetectorConfig {
         }
         if !self.threshold.is_finite() || self.threshold < 0.0 {
             return bad("threshold", self.threshold, "must be a finite number >= 0");
-        }
-        if !self.relative_threshold.is_finite() || !(0.0..1.0).contains(&self.relative_threshold) {
-            return bad(
-                "relative_threshold",
-                self.relative_threshold,
-                "must be finite, in [0, 1)",
-            );
         }
         if !(1..=MAX_ORIENTATIONS).contains(&self.orientations) {
             return bad(

@@ -156,23 +156,9 @@ impl Detector {
         }
     }
 
-    /// Harris candidates of a frame, sorted strongest first, with the threshold used (the
-    /// larger of the absolute floor and `relative_threshold` times the strongest candidate),
-    /// the backend that ran and its stage timings.
+    /// Harris candidates of a frame, sorted strongest first, with the threshold used, the
+    /// backend that ran and its stage timings.
     pub fn candidates(&self, frame: &Frame) -> Result<HarrisRun> {
-        let mut run = self.harris_candidates(frame)?;
-        let relative = self.plan.config.relative_threshold
-            * run.candidates.first().map_or(0.0, |c| c.response);
-        if relative > run.threshold {
-            // Sorted strongest first: the weak ones are a tail.
-            let keep = run.candidates.partition_point(|c| c.response > relative);
-            run.candidates.truncate(keep);
-            run.threshold = relative;
-        }
-        Ok(run)
-    }
-
-    fn harris_candidates(&self, frame: &Frame) -> Result<HarrisRun> {
         crate::image::check_size("image", frame.width, frame.height)?;
         if let Some(g) = &self.gpu {
             match g.candidates(&frame.gray, frame.width, frame.height) {
