@@ -133,12 +133,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         if (keep) {
             let o = peak_offset(i, w);
-            let ox = o.x;
-            let oy = o.y;
             let slot = atomicAdd(&counter, 1u);
             if (slot < settings.capacity) {
                 let g = f32(params.step);
-                candidates[slot] = Candidate((f32(gid.x) + ox) * g, (f32(gid.y) + oy) * g, v, (params.scale << 16u) | t);
+                candidates[slot] = Candidate((f32(gid.x) + o.x) * g, (f32(gid.y) + o.y) * g, v, (params.scale << 16u) | t);
             }
         }
     }

@@ -63,7 +63,7 @@ impl Stats {
             by_orientation: vec![0.0; orientations],
         }
     }
-    fn add(&mut self, c: &Candidate, rank_weights: &[f32]) {
+    fn add(&mut self, c: &Candidate, plan: &HarrisPlan) {
         let w = c.response.max(1e-20) as f64;
         self.wsum += w;
         self.sx += w * c.x as f64;
@@ -71,7 +71,7 @@ impl Stats {
         self.max = self.max.max(c.response);
         self.strength = self
             .strength
-            .max(c.response * rank_weights[c.scale_index()]);
+            .max(c.response * plan.scales[c.scale_index()].rank_weight);
         self.count += 1;
         self.by_scale[c.scale_index()] += w;
         self.by_orientation[c.orientation_index()] += w;
@@ -269,11 +269,10 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         centres = moved.into_iter().flatten().collect();
     }
     let (ns, no) = (plan.scales.len(), plan.orientations.len());
-    let rank_weights: Vec<f32> = plan.scales.iter().map(|s| s.rank_weight).collect();
     let mut stats = vec![Stats::new(ns, no); centres.len()];
     for (c, a) in candidates.iter().zip(&assignment) {
         if let Some(i) = *a {
-            stats[i].add(c, &rank_weights);
+            stats[i].add(c, plan);
         }
     }
     stats.retain(|s| s.count > 0);
@@ -308,7 +307,6 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
             .for_each(|(d, &p)| *d = d.min(dist2(p, c)));
     }
     let (ns, no) = (plan.scales.len(), plan.orientations.len());
-    let rank_weights: Vec<f32> = plan.scales.iter().map(|s| s.rank_weight).collect();
     let mut stats = Vec::new();
     for _ in 0..10 {
         let assignment: Vec<usize> = points
@@ -325,7 +323,7 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         stats = vec![Stats::new(ns, no); centres.len()];
         let mut plain = vec![(0.0f64, 0.0f64, 0usize); centres.len()];
         for ((c, &a), p) in candidates.iter().zip(&assignment).zip(&points) {
-            stats[a].add(c, &rank_weights);
+            stats[a].add(c, plan);
             plain[a].0 += p.0 as f64;
             plain[a].1 += p.1 as f64;
             plain[a].2 += 1;
