@@ -30,6 +30,10 @@ pub struct SlamConfig {
     pub max_search_extent: f64,
     /// Smallest normalised cross-correlation accepted as a match.
     pub min_correlation: f32,
+    /// Smallest correlation for a pixel followed by KLT from the previous frame (its
+    /// forward–backward check already vouches for it; the warped template only guards
+    /// against drift, and its warp is least reliable while the depth is uncertain).
+    pub min_tracked_correlation: f32,
     /// Largest difference of any entropy of the descriptor (eq 10) accepted, bits.
     pub descriptor_tolerance: f32,
     /// Pixel distance under which a match supports a 1-point RANSAC hypothesis.
@@ -73,6 +77,7 @@ impl Default for SlamConfig {
             search_gate: 9.21,
             max_search_extent: 40.0,
             min_correlation: 0.8,
+            min_tracked_correlation: 0.5,
             descriptor_tolerance: 1.0,
             ransac_threshold: 2.0,
             ransac_confidence: 0.99,
@@ -128,6 +133,13 @@ impl SlamConfig {
             return Err(Error::config(
                 "slam.min_correlation",
                 self.min_correlation,
+                "must be in [-1, 1]",
+            ));
+        }
+        if !(-1.0..=1.0).contains(&self.min_tracked_correlation) {
+            return Err(Error::config(
+                "slam.min_tracked_correlation",
+                self.min_tracked_correlation,
                 "must be in [-1, 1]",
             ));
         }

@@ -299,6 +299,15 @@ impl Filter {
         rho0: f64,
         rho_sigma: f64,
     ) -> Vec<u64> {
+        let priors: Vec<(Vector2<f64>, f64, f64)> =
+            pixels.iter().map(|&z| (z, rho0, rho_sigma)).collect();
+        self.add_landmarks_with_depth(&priors)
+    }
+
+    /// Adds inverse-depth landmarks seen from the current pose, each with its own
+    /// inverse-depth prior: `(pixel, ρ, σ_ρ)` (a triangulated depth, for instance).
+    pub fn add_landmarks_with_depth(&mut self, priors: &[(Vector2<f64>, f64, f64)]) -> Vec<u64> {
+        let pixels: Vec<Vector2<f64>> = priors.iter().map(|p| p.0).collect();
         if pixels.is_empty() {
             return Vec::new();
         }
@@ -316,7 +325,7 @@ impl Filter {
         let ppp = self.p.fixed_view::<7, 7>(0, 0).into_owned();
         let mut jacobians: Vec<SMatrix<f64, 6, 7>> = Vec::with_capacity(k);
         let mut ids = Vec::with_capacity(k);
-        for (i, z) in pixels.iter().enumerate() {
+        for (i, (z, &(_, rho0, rho_sigma))) in pixels.iter().zip(priors).enumerate() {
             let (y, jp, jz) = inverse_depth::initialise(&self.camera, *z, &r, &q, rho0);
             let off = n + 6 * i;
             x.rows_mut(off, 6).copy_from_slice(&y);

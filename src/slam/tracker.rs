@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use nalgebra::{Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -15,8 +15,10 @@ use super::camera::PinholeCamera;
 use super::config::SlamConfig;
 use super::ekf::{Filter, Observation};
 use super::inverse_depth::{self, Parametrisation};
+use super::klt::{self, KltParams, Pyramid};
 use super::motion::OdometryStep;
-use super::rotation::Quat;
+use super::rotation::{self, Quat};
+use super::two_view;
 use crate::error::{Error, Result};
 use crate::features::Detector;
 use crate::image::Frame;
@@ -68,8 +70,11 @@ pub struct FrameReport {
     pub state_dim: usize,
     /// Fewer than 3 landmarks supported the pose this frame.
     pub lost: bool,
-    /// Tracking had been lost for `lost_after` frames and the map was restarted here.
+    /// Tracking had been lost for `lost_after` frames and the motion was re-estimated from two
+    /// views here (the map is kept).
     pub reinitialised: bool,
+    /// The filter is waiting for enough parallax to start (the pose is the start pose).
+    pub initialising: bool,
     /// Timings.
     pub timings: SlamTimings,
 }
@@ -80,6 +85,8 @@ struct Track {
     predicted: usize,
     matched: usize,
     last_seen: usize,
+    /// Where it was measured in the previous frame, when it was: the start of its KLT track.
+    last_pixel: Option<Vector2<f64>>,
 }
 
 /// A monocular EKF SLAM session.
@@ -93,6 +100,28 @@ pub struct Slam {
     rng: Rng,
     /// Frame index before which detection is skipped (the last one found no free cell).
     detect_after: usize,
+    /// The previous frame's pyramid, the source of the KLT tracks.
+    previous: Option<Pyramid>,
+    /// Points followed from a reference frame until the two views fix the motion.
+    bootstrap: Option<Bootstrap>,
+    /// The filter holds a map seated from two views (false until the first bootstrap).
+    started: bool,
+}
+
+/// Points followed by KLT from a reference frame, for the two-view start.
+#[derive(Clone, Debug)]
+struct Bootstrap {
+    /// Timestamp of the reference frame.
+    timestamp: f64,
+    /// Camera pose at the reference frame.
+    position: Vector3<f64>,
+    orientation: Quat,
+    /// Pixels in the reference frame and where KLT has followed them to.
+    start: Vec<Vector2<f64>>,
+    current: Vec<Vector2<f64>>,
+    /// Distance travelled per second to give the two-view translation; `None` at start-up,
+    /// where the scale follows from the inverse-depth prior instead.
+    speed: Option<f64>,
 }
 
 impl Slam {
@@ -100,6 +129,9 @@ impl Slam {
     pub fn new(camera: PinholeCamera, config: SlamConfig) -> Result<Self> {
         camera.validate()?;
         config.validate()?;
+        // Odometry gives the motion and its scale from the first frame; only the
+        // constant-velocity model has to learn them from two views.
+        let started = matches!(config.motion, super::motion::MotionModel::Odometry { .. });
         let filter = Filter::new(
             camera,
             config.motion.clone(),
@@ -116,6 +148,9 @@ impl Slam {
             lost_streak: 0,
             rng: Rng(0x5EED),
             detect_after: 0,
+            previous: None,
+            bootstrap: None,
+            started,
         })
     }
 
@@ -164,7 +199,9 @@ impl Slam {
                     format!("must increase (previous frame at {prev})"),
                 ));
             }
-            self.filter.predict(dt, odometry);
+            if self.started {
+                self.filter.predict(dt, odometry);
+            }
         }
         self.last_time = Some(timestamp);
         let mut timings = SlamTimings {
@@ -174,12 +211,32 @@ impl Slam {
 
         // Active search, in parallel over landmarks.
         let t_assoc = Instant::now();
+        let pyramid = Pyramid::new(
+            &frame.gray,
+            frame.width as usize,
+            frame.height as usize,
+            KltParams::default().levels,
+        );
+        let previous = self.previous.take();
+        if !self.started {
+            let report = self.initialise(
+                frame,
+                timestamp,
+                detector,
+                previous.as_ref(),
+                &pyramid,
+                start,
+            );
+            self.previous = Some(pyramid);
+            self.frame_index += 1;
+            return report;
+        }
         let half = self.config.template_half;
         let (r, q) = (self.filter.position(), self.filter.orientation());
         let filter = &self.filter;
         let tracks = &self.tracks;
         let config = &self.config;
-        let searched: Vec<(usize, Option<Observation>, bool)> = (0..filter.slots.len())
+        let searched: Vec<Searched> = (0..filter.slots.len())
             .into_par_iter()
             .filter_map(|slot| {
                 let prediction = filter.predict_observation(slot)?;
@@ -192,7 +249,35 @@ impl Slam {
                     .landmark_point(slot)
                     .and_then(|point| template.view_warp(&cam, &point, &r, &q));
                 let Some(t) = association::normalised(&template.warped(warp, half)) else {
-                    return Some((slot, None, false));
+                    return Some((slot, None, false, None));
+                };
+                // Seen in the previous frame: follow it with KLT, then let the template
+                // confirm (and anchor, against drift) the tracked pixel.
+                let tracked =
+                    previous
+                        .as_ref()
+                        .zip(tracks[slot].last_pixel)
+                        .and_then(|(from, last)| {
+                            let guess = if cam.contains(&prediction.pixel, 0.0) {
+                                prediction.pixel
+                            } else {
+                                last
+                            };
+                            klt::track(from, &pyramid, last, guess, &KltParams::default())
+                        });
+                let region = match tracked {
+                    Some(z) => association::SearchRegion {
+                        predicted: z,
+                        covariance: Matrix2::identity() * 0.5,
+                        gate: config.search_gate,
+                        max_extent: 2.0,
+                    },
+                    None => association::SearchRegion {
+                        predicted: prediction.pixel,
+                        covariance: s,
+                        gate: config.search_gate,
+                        max_extent: config.max_search_extent,
+                    },
                 };
                 let found = association::search(
                     &frame.gray,
@@ -200,21 +285,32 @@ impl Slam {
                     frame.height as usize,
                     &t,
                     half,
-                    &association::SearchRegion {
-                        predicted: prediction.pixel,
-                        covariance: s,
-                        gate: config.search_gate,
-                        max_extent: config.max_search_extent,
-                    },
+                    &region,
                 );
+                if std::env::var("SN_DEBUG").is_ok() {
+                    eprintln!(
+                        "DBG slot {slot} last {:?} pred {:?} klt {:?} found {:?}",
+                        tracks[slot].last_pixel.map(|v| (v.x as i32, v.y as i32)),
+                        (prediction.pixel.x as i32, prediction.pixel.y as i32),
+                        tracked.map(|v| (v.x as i32, v.y as i32)),
+                        found.map(|(z, s)| (z.x as i32, z.y as i32, s))
+                    );
+                }
                 match found {
-                    Some((z, score)) if score >= config.min_correlation => {
+                    Some((z, score))
+                        if score
+                            >= if tracked.is_some() {
+                                config.min_tracked_correlation
+                            } else {
+                                config.min_correlation
+                            } =>
+                    {
                         let d =
                             crate::features::descriptor::describe(frame, z.x as f32, z.y as f32);
                         if association::descriptor_distance(&d, &template.descriptor)
                             > config.descriptor_tolerance
                         {
-                            return Some((slot, None, true));
+                            return Some((slot, None, true, tracked));
                         }
                         Some((
                             slot,
@@ -224,16 +320,26 @@ impl Slam {
                                 prediction,
                             }),
                             false,
+                            tracked,
                         ))
                     }
-                    _ => Some((slot, None, false)),
+                    _ => Some((slot, None, false, tracked)),
                 }
             })
             .collect();
         let predicted = searched.len();
         let descriptor_rejected = searched.iter().filter(|s| s.2).count();
-        for (slot, _, _) in &searched {
+        for (slot, _, _, _) in &searched {
             self.tracks[*slot].predicted += 1;
+        }
+        // A KLT track continues whether or not its landmark is used this frame: rejection is
+        // often the landmark's estimate being wrong, not the pixel, and deletion (by match
+        // ratio) retires landmarks that keep failing.
+        for track in &mut self.tracks {
+            track.last_pixel = None;
+        }
+        for s in &searched {
+            self.tracks[s.0].last_pixel = s.3;
         }
         let candidates: Vec<Observation> = searched.into_iter().filter_map(|s| s.1).collect();
         let inlier_flags = self.one_point_ransac(&candidates);
@@ -276,6 +382,11 @@ impl Slam {
         } else {
             rescued.clear();
         }
+        for obs in inliers.iter().chain(&rescued) {
+            if supported.contains(&obs.slot) {
+                self.tracks[obs.slot].last_pixel = Some(obs.pixel);
+            }
+        }
         for &slot in &supported {
             self.tracks[slot].matched += 1;
             self.tracks[slot].last_seen = self.frame_index;
@@ -304,6 +415,7 @@ impl Slam {
         let (created, detection_ms, creation_ms) = self.create_landmarks(frame, detector)?;
         timings.detection_ms = detection_ms;
         timings.filter_ms += creation_ms;
+        self.previous = Some(pyramid);
         self.frame_index += 1;
         timings.total_ms = ms(start);
         let cov = self.filter.position_covariance();
@@ -330,8 +442,290 @@ impl Slam {
             state_dim: self.filter.dim(),
             lost,
             reinitialised,
+            initialising: false,
             timings,
         })
+    }
+
+    /// Start-up: follows keypoints from a reference frame until the two views determine the
+    /// motion, then seats the filter there — pose, velocity, angular velocity, and landmarks
+    /// at their triangulated depths.
+    fn initialise(
+        &mut self,
+        frame: &Frame,
+        timestamp: f64,
+        detector: &Detector,
+        previous: Option<&Pyramid>,
+        pyramid: &Pyramid,
+        start: Instant,
+    ) -> Result<FrameReport> {
+        let mut timings = SlamTimings::default();
+        let mut created = 0;
+        let followed = match (self.bootstrap.as_mut(), previous) {
+            (Some(b), Some(from)) => {
+                let t = Instant::now();
+                let params = KltParams::default();
+                let moved: Vec<Option<Vector2<f64>>> = b
+                    .current
+                    .par_iter()
+                    .map(|&z| klt::track(from, pyramid, z, z, &params))
+                    .collect();
+                let mut kept = 0;
+                for (i, m) in moved.into_iter().enumerate() {
+                    if let Some(z) = m {
+                        b.start[kept] = b.start[i];
+                        b.current[kept] = z;
+                        kept += 1;
+                    }
+                }
+                b.start.truncate(kept);
+                b.current.truncate(kept);
+                timings.association_ms = ms(t);
+                kept
+            }
+            _ => 0,
+        };
+        if followed >= MIN_BOOTSTRAP_POINTS {
+            let t = Instant::now();
+            created = self.try_seat(frame, timestamp);
+            timings.filter_ms = ms(t);
+        }
+        if !self.started && followed < MIN_BOOTSTRAP_POINTS {
+            // (Re)start the reference here.
+            let t = Instant::now();
+            let detection = detector.detect(frame)?;
+            timings.detection_ms = ms(t);
+            let points = self.spread(&detection.keypoints, frame);
+            self.bootstrap = Some(Bootstrap {
+                timestamp,
+                position: self.filter.position(),
+                orientation: self.filter.orientation(),
+                start: points.clone(),
+                current: points,
+                speed: None,
+            });
+        }
+        timings.total_ms = ms(start);
+        Ok(self.report(timestamp, timings, created, !self.started))
+    }
+
+    /// Up to `BOOTSTRAP_POINTS` keypoints, strongest first, at most two per cell of a fine grid.
+    fn spread(&self, keypoints: &[crate::features::Keypoint], frame: &Frame) -> Vec<Vector2<f64>> {
+        let cam = &self.filter.camera;
+        let margin = (KltParams::default().half_window + 2) as f64;
+        let (gx, gy) = (16usize, 12usize);
+        let mut count = vec![0u8; gx * gy];
+        let mut out = Vec::new();
+        for kp in keypoints {
+            let z = Vector2::new(kp.x as f64, kp.y as f64);
+            if !cam.contains(&z, margin) {
+                continue;
+            }
+            let cx = ((z.x / frame.width as f64) * gx as f64) as usize;
+            let cy = ((z.y / frame.height as f64) * gy as f64) as usize;
+            let c = cy.min(gy - 1) * gx + cx.min(gx - 1);
+            if count[c] >= 2 {
+                continue;
+            }
+            count[c] += 1;
+            out.push(z);
+            if out.len() >= BOOTSTRAP_POINTS {
+                break;
+            }
+        }
+        out
+    }
+
+    /// Tries the two-view estimate on the followed points; when it is well determined, seats
+    /// the filter and returns the number of landmarks created.
+    fn try_seat(&mut self, frame: &Frame, timestamp: f64) -> usize {
+        let Some(b) = self.bootstrap.as_ref() else {
+            return 0;
+        };
+        let cam = self.filter.camera.clone();
+        let normalised = |z: &Vector2<f64>| {
+            let (ray, _) = cam.back_project(*z);
+            ray / ray.z
+        };
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = b
+            .start
+            .iter()
+            .zip(&b.current)
+            .map(|(a, c)| (normalised(a), normalised(c)))
+            .collect();
+        let threshold = self.config.ransac_threshold / cam.fx.max(cam.fy);
+        let Some(pose) = two_view::relative_pose(&pairs, threshold, 200, &mut self.rng) else {
+            return 0;
+        };
+        let inlier_count = pose.inliers.iter().filter(|&&i| i).count();
+        let mut parallax: Vec<f64> = pose
+            .parallax
+            .iter()
+            .zip(&pose.inliers)
+            .filter(|(_, &i)| i)
+            .map(|(p, _)| *p)
+            .collect();
+        if inlier_count < MIN_BOOTSTRAP_POINTS || 2 * inlier_count < pairs.len() {
+            return 0;
+        }
+        parallax.sort_by(f64::total_cmp);
+        if parallax[parallax.len() / 2] < MIN_BOOTSTRAP_PARALLAX {
+            return 0;
+        }
+        let elapsed = (timestamp - b.timestamp).max(1e-9);
+        let mut inverse_depths: Vec<f64> = pose
+            .depths
+            .iter()
+            .zip(&pose.inliers)
+            .filter(|(_, &i)| i)
+            .map(|(d, _)| 1.0 / d)
+            .collect();
+        inverse_depths.sort_by(f64::total_cmp);
+        let median_rho = inverse_depths[inverse_depths.len() / 2];
+        // Metres per unit of two-view translation.
+        let scale = match b.speed {
+            Some(speed) => speed * elapsed,
+            None => median_rho / self.config.initial_inverse_depth.max(1e-6),
+        };
+        let rot0 = rotation::matrix(&b.orientation);
+        // Camera 1 in camera 0's frame: centre −Rᵀt, orientation Rᵀ.
+        let centre = -(pose.rotation.transpose() * pose.translation) * scale;
+        let r = b.position + rot0 * centre;
+        let q = rotation::multiply(
+            &b.orientation,
+            &rotation::from_matrix(&pose.rotation.transpose()),
+        );
+        let velocity = (r - b.position) / elapsed;
+        let omega =
+            rotation::to_rotation_vector(&rotation::from_matrix(&pose.rotation.transpose()))
+                / elapsed;
+        let c = self.filter.motion.camera_dim();
+        self.filter.x.as_mut_slice()[0..3].copy_from_slice(r.as_slice());
+        self.filter.x.as_mut_slice()[3..7].copy_from_slice(q.as_slice());
+        let n = self.filter.dim();
+        // The old map's correlations with the camera no longer hold: the pose is re-measured.
+        self.filter.p.view_mut((0, 0), (c, n)).fill(0.0);
+        self.filter.p.view_mut((0, 0), (n, c)).fill(0.0);
+        let baseline = (r - b.position).norm();
+        for i in 0..3 {
+            self.filter.p[(i, i)] = (0.05 * baseline).powi(2) + 1e-12;
+        }
+        for i in 3..7 {
+            self.filter.p[(i, i)] = 1e-6;
+        }
+        if c == 13 {
+            self.filter.x.as_mut_slice()[7..10].copy_from_slice(velocity.as_slice());
+            self.filter.x.as_mut_slice()[10..13].copy_from_slice(omega.as_slice());
+            for i in 7..10 {
+                self.filter.p[(i, i)] =
+                    (0.1 * velocity.norm()).powi(2) + self.config.velocity_sigma.powi(2);
+                self.filter.p[(i + 3, i + 3)] = self.config.angular_velocity_sigma.powi(2);
+            }
+        }
+        // Landmarks at the triangulated inliers, spread over the grid.
+        let inliers: Vec<(Vector2<f64>, f64, f64)> = (0..pairs.len())
+            .filter(|&i| pose.inliers[i])
+            .map(|i| {
+                let rho = 1.0 / (pose.depths[i] * scale);
+                // Depth from parallax α with one pixel of noise: σ_ρ/ρ ≈ (σ/f)/α.
+                let relative = (self.config.pixel_sigma / cam.fx) / pose.parallax[i].max(1e-6);
+                let sigma = (rho * relative.max(0.1)).min(self.config.inverse_depth_sigma.max(rho));
+                (b.current[i], rho, sigma)
+            })
+            .collect();
+        self.bootstrap = None;
+        self.started = true;
+        self.seed_landmarks(frame, &inliers)
+    }
+
+    /// Adds landmarks at the given priors, at most one per free grid cell, up to
+    /// `target_visible` visible landmarks.
+    fn seed_landmarks(&mut self, frame: &Frame, priors: &[(Vector2<f64>, f64, f64)]) -> usize {
+        let cam = self.filter.camera.clone();
+        let margin = (2 * self.config.template_half + 2) as f64;
+        let [gx, gy] = self.config.grid;
+        let cell = |z: &Vector2<f64>| -> usize {
+            let cx = ((z.x / cam.width as f64) * gx as f64).clamp(0.0, gx as f64 - 1.0) as usize;
+            let cy = ((z.y / cam.height as f64) * gy as f64).clamp(0.0, gy as f64 - 1.0) as usize;
+            cy * gx + cx
+        };
+        let mut occupied = vec![false; gx * gy];
+        let mut visible = 0;
+        for slot in 0..self.filter.slots.len() {
+            if let Some(p) = self.filter.predict_observation(slot) {
+                if cam.contains(&p.pixel, 0.0) {
+                    occupied[cell(&p.pixel)] = true;
+                    visible += 1;
+                }
+            }
+        }
+        let mut chosen = Vec::new();
+        for &(z, rho, sigma) in priors {
+            if visible + chosen.len() >= self.config.target_visible.max(1) * 2 {
+                break;
+            }
+            let z = Vector2::new(z.x.round(), z.y.round());
+            if !cam.contains(&z, margin) || occupied[cell(&z)] {
+                continue;
+            }
+            let template = Template::capture(
+                frame,
+                z,
+                2 * self.config.template_half,
+                self.filter.position(),
+                self.filter.orientation(),
+            );
+            if association::normalised(&template.patch).is_none() {
+                continue;
+            }
+            occupied[cell(&z)] = true;
+            chosen.push((z, rho, sigma));
+            self.tracks.push(Track {
+                template,
+                predicted: 0,
+                matched: 0,
+                last_seen: self.frame_index,
+                last_pixel: Some(z),
+            });
+        }
+        self.filter.add_landmarks_with_depth(&chosen);
+        chosen.len()
+    }
+
+    fn report(
+        &self,
+        timestamp: f64,
+        timings: SlamTimings,
+        created: usize,
+        initialising: bool,
+    ) -> FrameReport {
+        let cov = self.filter.position_covariance();
+        let qn = self.filter.orientation();
+        let p = self.filter.position();
+        FrameReport {
+            timestamp,
+            position: [p.x, p.y, p.z],
+            orientation: [qn[0], qn[1], qn[2], qn[3]],
+            position_covariance: [
+                [cov[(0, 0)], cov[(0, 1)], cov[(0, 2)]],
+                [cov[(1, 0)], cov[(1, 1)], cov[(1, 2)]],
+                [cov[(2, 0)], cov[(2, 1)], cov[(2, 2)]],
+            ],
+            predicted: 0,
+            matched: 0,
+            descriptor_rejected: 0,
+            inliers: 0,
+            rescued: 0,
+            created,
+            deleted: 0,
+            converted: 0,
+            landmarks: self.filter.slots.len(),
+            state_dim: self.filter.dim(),
+            lost: false,
+            reinitialised: false,
+            initialising,
+            timings,
+        }
     }
 
     /// 1-point RANSAC: each hypothesis is the state updated with one match; the hypothesis
@@ -531,6 +925,7 @@ impl Slam {
                 predicted: 0,
                 matched: 0,
                 last_seen: self.frame_index,
+                last_pixel: Some(z),
             });
         }
         if pixels.is_empty() {
@@ -581,6 +976,17 @@ pub struct MapPoint {
     /// Frames in which it was matched and used.
     pub observations: usize,
 }
+
+/// One landmark's search: slot, the observation when matched, whether the descriptor
+/// rejected it, and the KLT-tracked pixel.
+type Searched = (usize, Option<Observation>, bool, Option<Vector2<f64>>);
+
+/// Fewest points (followed, then inliers) for a two-view estimate.
+const MIN_BOOTSTRAP_POINTS: usize = 20;
+/// Points followed from the reference frame.
+const BOOTSTRAP_POINTS: usize = 300;
+/// Median parallax, radians, for the two views to fix the depths (about 1°).
+const MIN_BOOTSTRAP_PARALLAX: f64 = 0.017;
 
 fn ms(since: Instant) -> f64 {
     since.elapsed().as_secs_f64() * 1e3
