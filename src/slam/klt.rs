@@ -59,16 +59,26 @@ impl Pyramid {
             if w < 16 || h < 16 {
                 break;
             }
+            // [1 2 1]/4 smoothing in both directions, sampled at even pixels: the 2×2 box
+            // alone aliases fine texture into false structure at the coarse levels.
+            let (lw, lh) = (last.width, last.height);
+            let src = &last.image;
             let mut image = vec![0.0f32; w * h];
             image.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-                let (r0, r1) = (2 * y * last.width, (2 * y + 1) * last.width);
+                let yc = 2 * y;
+                let rows = [yc.saturating_sub(1), yc, (yc + 1).min(lh - 1)];
                 for (x, v) in row.iter_mut().enumerate() {
-                    let c = 2 * x;
-                    *v = 0.25
-                        * (last.image[r0 + c]
-                            + last.image[r0 + c + 1]
-                            + last.image[r1 + c]
-                            + last.image[r1 + c + 1]);
+                    let xc = 2 * x;
+                    let cols = [xc.saturating_sub(1), xc, (xc + 1).min(lw - 1)];
+                    let mut acc = 0.0;
+                    for (ry, wy) in rows.iter().zip([1.0f32, 2.0, 1.0]) {
+                        let base = ry * lw;
+                        acc += wy
+                            * (src[base + cols[0]]
+                                + 2.0 * src[base + cols[1]]
+                                + src[base + cols[2]]);
+                    }
+                    *v = acc / 16.0;
                 }
             });
             out.push(Level::new(image, w, h));
@@ -122,6 +132,79 @@ impl Level {
         let bottom = plane[r1 + x0] * (1.0 - fx) + plane[r1 + x1] * fx;
         top * (1.0 - fy) + bottom * fy
     }
+}
+
+/// Corners good for tracking (Shi and Tomasi, 1994): the smaller eigenvalue of the
+/// structure tensor over a 5×5 window at full resolution, kept on a `cells`-wide grid so that
+/// every part of the image contributes, at most `per_cell` per cell, strongest first, and
+/// only above 1% of the strongest corner.
+pub fn good_features(
+    pyramid: &Pyramid,
+    cells: [usize; 2],
+    per_cell: usize,
+    margin: usize,
+) -> Vec<Vector2<f64>> {
+    let level = &pyramid.levels[0];
+    let (w, h) = (level.width, level.height);
+    let r = 2usize;
+    let start = margin.max(r + 1);
+    if w <= 2 * start || h <= 2 * start {
+        return Vec::new();
+    }
+    // Score every pixel (rows in parallel), then keep 3×3 local maxima.
+    let mut score = vec![0.0f32; w * h];
+    score
+        .par_chunks_mut(w)
+        .enumerate()
+        .skip(start)
+        .take(h - 2 * start)
+        .for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate().skip(start).take(w - 2 * start) {
+                let (mut xx, mut xy, mut yy) = (0.0f32, 0.0f32, 0.0f32);
+                for yy_ in y - r..=y + r {
+                    let base = yy_ * w;
+                    for xx_ in x - r..=x + r {
+                        let (gx, gy) = (level.gx[base + xx_], level.gy[base + xx_]);
+                        xx += gx * gx;
+                        xy += gx * gy;
+                        yy += gy * gy;
+                    }
+                }
+                let tr = xx + yy;
+                *out = 0.5 * (tr - ((xx - yy) * (xx - yy) + 4.0 * xy * xy).sqrt());
+            }
+        });
+    let strongest = score.iter().cloned().fold(0.0f32, f32::max);
+    if strongest <= 0.0 {
+        return Vec::new();
+    }
+    let floor = 0.01 * strongest;
+    let [gx, gy] = cells;
+    let mut per: Vec<Vec<(f32, usize)>> = vec![Vec::new(); gx * gy];
+    for y in start..h - start {
+        for x in start..w - start {
+            let v = score[y * w + x];
+            if v < floor {
+                continue;
+            }
+            let is_max = (y - 1..=y + 1)
+                .all(|j| (x - 1..=x + 1).all(|i| (i == x && j == y) || score[j * w + i] < v));
+            if is_max {
+                let c = (y * gy / h) * gx + x * gx / w;
+                per[c].push((v, y * w + x));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for cell in &mut per {
+        cell.sort_by(|a, b| b.0.total_cmp(&a.0));
+        out.extend(
+            cell.iter()
+                .take(per_cell)
+                .map(|&(_, i)| Vector2::new((i % w) as f64, (i / w) as f64)),
+        );
+    }
+    out
 }
 
 /// Tracks `point` of `from` into `to`, starting the search at `guess` (a pixel of `to`, for

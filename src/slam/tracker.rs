@@ -219,14 +219,7 @@ impl Slam {
         );
         let previous = self.previous.take();
         if !self.started {
-            let report = self.initialise(
-                frame,
-                timestamp,
-                detector,
-                previous.as_ref(),
-                &pyramid,
-                start,
-            );
+            let report = self.initialise(frame, timestamp, previous.as_ref(), &pyramid, start);
             self.previous = Some(pyramid);
             self.frame_index += 1;
             return report;
@@ -287,15 +280,6 @@ impl Slam {
                     half,
                     &region,
                 );
-                if std::env::var("SN_DEBUG").is_ok() {
-                    eprintln!(
-                        "DBG slot {slot} last {:?} pred {:?} klt {:?} found {:?}",
-                        tracks[slot].last_pixel.map(|v| (v.x as i32, v.y as i32)),
-                        (prediction.pixel.x as i32, prediction.pixel.y as i32),
-                        tracked.map(|v| (v.x as i32, v.y as i32)),
-                        found.map(|(z, s)| (z.x as i32, z.y as i32, s))
-                    );
-                }
                 match found {
                     Some((z, score))
                         if score
@@ -454,7 +438,6 @@ impl Slam {
         &mut self,
         frame: &Frame,
         timestamp: f64,
-        detector: &Detector,
         previous: Option<&Pyramid>,
         pyramid: &Pyramid,
         start: Instant,
@@ -493,9 +476,9 @@ impl Slam {
         if !self.started && followed < MIN_BOOTSTRAP_POINTS {
             // (Re)start the reference here.
             let t = Instant::now();
-            let detection = detector.detect(frame)?;
+            let margin = KltParams::default().half_window + 2;
+            let points = klt::good_features(pyramid, [16, 12], 2, margin);
             timings.detection_ms = ms(t);
-            let points = self.spread(&detection.keypoints, frame);
             self.bootstrap = Some(Bootstrap {
                 timestamp,
                 position: self.filter.position(),
@@ -507,33 +490,6 @@ impl Slam {
         }
         timings.total_ms = ms(start);
         Ok(self.report(timestamp, timings, created, !self.started))
-    }
-
-    /// Up to `BOOTSTRAP_POINTS` keypoints, strongest first, at most two per cell of a fine grid.
-    fn spread(&self, keypoints: &[crate::features::Keypoint], frame: &Frame) -> Vec<Vector2<f64>> {
-        let cam = &self.filter.camera;
-        let margin = (KltParams::default().half_window + 2) as f64;
-        let (gx, gy) = (16usize, 12usize);
-        let mut count = vec![0u8; gx * gy];
-        let mut out = Vec::new();
-        for kp in keypoints {
-            let z = Vector2::new(kp.x as f64, kp.y as f64);
-            if !cam.contains(&z, margin) {
-                continue;
-            }
-            let cx = ((z.x / frame.width as f64) * gx as f64) as usize;
-            let cy = ((z.y / frame.height as f64) * gy as f64) as usize;
-            let c = cy.min(gy - 1) * gx + cx.min(gx - 1);
-            if count[c] >= 2 {
-                continue;
-            }
-            count[c] += 1;
-            out.push(z);
-            if out.len() >= BOOTSTRAP_POINTS {
-                break;
-            }
-        }
-        out
     }
 
     /// Tries the two-view estimate on the followed points; when it is well determined, seats
@@ -554,7 +510,7 @@ impl Slam {
             .map(|(a, c)| (normalised(a), normalised(c)))
             .collect();
         let threshold = self.config.ransac_threshold / cam.fx.max(cam.fy);
-        let Some(pose) = two_view::relative_pose(&pairs, threshold, 200, &mut self.rng) else {
+        let Some(pose) = two_view::relative_pose(&pairs, threshold, 2000, &mut self.rng) else {
             return 0;
         };
         let inlier_count = pose.inliers.iter().filter(|&&i| i).count();
@@ -569,7 +525,7 @@ impl Slam {
             return 0;
         }
         parallax.sort_by(f64::total_cmp);
-        if parallax[parallax.len() / 2] < MIN_BOOTSTRAP_PARALLAX {
+        if parallax[3 * parallax.len() / 4] < MIN_BOOTSTRAP_PARALLAX {
             return 0;
         }
         let elapsed = (timestamp - b.timestamp).max(1e-9);
@@ -983,9 +939,8 @@ type Searched = (usize, Option<Observation>, bool, Option<Vector2<f64>>);
 
 /// Fewest points (followed, then inliers) for a two-view estimate.
 const MIN_BOOTSTRAP_POINTS: usize = 20;
-/// Points followed from the reference frame.
-const BOOTSTRAP_POINTS: usize = 300;
-/// Median parallax, radians, for the two views to fix the depths (about 1°).
+/// Parallax, radians, that a quarter of the inliers must reach for the two views to fix the
+/// depths (about 1°).
 const MIN_BOOTSTRAP_PARALLAX: f64 = 0.017;
 
 fn ms(since: Instant) -> f64 {

@@ -106,7 +106,10 @@ pub fn relative_pose(
     let inliers_of =
         |e: &Matrix3<f64>| -> Vec<bool> { points.iter().map(|c| sampson(e, c) < t2).collect() };
     let mut best: Option<(usize, Vec<bool>)> = None;
-    for _ in 0..iterations {
+    let mut needed = iterations;
+    let mut done = 0;
+    while done < needed {
+        done += 1;
         let mut sample = [0usize; 8];
         let mut k = 0;
         while k < 8 {
@@ -122,6 +125,12 @@ pub fn relative_pose(
         let inliers = inliers_of(&e);
         let count = inliers.iter().filter(|&&b| b).count();
         if best.as_ref().is_none_or(|(c, _)| count > *c) {
+            // Adaptive count for 99% confidence of one all-inlier sample of eight.
+            let w = (count as f64 / n as f64).powi(8);
+            if w > 0.0 {
+                let adaptive = ((0.01f64).ln() / (1.0 - w).ln().min(-1e-12)).ceil();
+                needed = needed.min(adaptive.max(1.0) as usize);
+            }
             best = Some((count, inliers));
         }
     }
