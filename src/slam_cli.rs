@@ -143,7 +143,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             let mut f = std::io::BufWriter::new(
                 std::fs::File::create(path).with_context(|| out_err(path))?,
             );
-            writeln!(f, "timestamp,predicted,matched,descriptor_rejected,inliers,rescued,created,deleted,converted,landmarks,state_dim,lost,reinitialised,detection_ms,association_ms,filter_ms,total_ms")
+            writeln!(f, "timestamp,predicted,matched,descriptor_rejected,inliers,rescued,created,deleted,converted,landmarks,state_dim,lost,relocalised,initialising,detection_ms,association_ms,filter_ms,total_ms")
                 .with_context(|| out_err(path))?;
             Some((path.clone(), f))
         }
@@ -208,7 +208,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             let t = &r.timings;
             writeln!(
                 f,
-                "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
+                "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
                 r.timestamp,
                 r.predicted,
                 r.matched,
@@ -221,7 +221,8 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 r.landmarks,
                 r.state_dim,
                 r.lost,
-                r.reinitialised,
+                r.relocalised,
+                r.initialising,
                 t.detection_ms,
                 t.association_ms,
                 t.filter_ms,
@@ -251,16 +252,18 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let n = reports.len().max(1) as f64;
     let mean = |f: fn(&FrameReport) -> f64| reports.iter().map(f).sum::<f64>() / n;
     let lost = reports.iter().filter(|r| r.lost).count();
-    let restarts = reports.iter().filter(|r| r.reinitialised).count();
+    let relocalised = reports.iter().filter(|r| r.relocalised).count();
+    let initialising = reports.iter().filter(|r| r.initialising).count();
     println!(
-        "{}: {} frames ({} layout), {} skipped, {} missing; tracking lost on {} frames, map restarted {} times",
+        "{}: {} frames ({} layout), {} skipped, {} missing; {} frames initialising, tracking lost on {} frames, relocalised {} times",
         cmd.sequence.display(),
         reports.len(),
         seq.layout,
         skipped,
         seq.missing.len(),
+        initialising,
         lost,
-        restarts
+        relocalised
     );
     println!(
         "per frame: detection {:.2} ms, association {:.2} ms, filter {:.2} ms, total {:.2} ms ({:.0} frames/s); {} landmarks at the end",

@@ -60,7 +60,8 @@ pub struct SlamConfig {
     pub min_match_ratio: f64,
     /// Most landmarks kept in the state; those unseen longest go first.
     pub max_landmarks: usize,
-    /// Frames in a row with fewer than 3 inliers before tracking counts as lost.
+    /// Frames in a row without support after which a frame that finds the map again is
+    /// reported as a relocalisation.
     pub lost_after: usize,
 }
 

@@ -70,9 +70,9 @@ pub struct FrameReport {
     pub state_dim: usize,
     /// Fewer than 3 landmarks supported the pose this frame.
     pub lost: bool,
-    /// Tracking had been lost for `lost_after` frames and the motion was re-estimated from two
-    /// views here (the map is kept).
-    pub reinitialised: bool,
+    /// Tracking resumed here against the existing map after being lost for at least
+    /// `lost_after` frames.
+    pub relocalised: bool,
     /// The filter is waiting for enough parallax to start (the pose is the start pose).
     pub initialising: bool,
     /// Timings.
@@ -218,6 +218,7 @@ impl Slam {
             KltParams::default().levels,
         );
         let previous = self.previous.take();
+        let lost_streak = self.lost_streak;
         if !self.started {
             let report = self.initialise(frame, timestamp, previous.as_ref(), &pyramid, start);
             self.previous = Some(pyramid);
@@ -269,7 +270,7 @@ impl Slam {
                         predicted: prediction.pixel,
                         covariance: s,
                         gate: config.search_gate,
-                        max_extent: config.max_search_extent,
+                        max_extent: config.max_search_extent * (1 + lost_streak.min(4)) as f64,
                     },
                 };
                 let found = association::search(
@@ -312,10 +313,8 @@ impl Slam {
             })
             .collect();
         let predicted = searched.len();
+        let searched_slots: Vec<usize> = searched.iter().map(|s| s.0).collect();
         let descriptor_rejected = searched.iter().filter(|s| s.2).count();
-        for (slot, _, _, _) in &searched {
-            self.tracks[*slot].predicted += 1;
-        }
         // A KLT track continues whether or not its landmark is used this frame: rejection is
         // often the landmark's estimate being wrong, not the pixel, and deletion (by match
         // ratio) retires landmarks that keep failing.
@@ -326,6 +325,12 @@ impl Slam {
             self.tracks[s.0].last_pixel = s.3;
         }
         let candidates: Vec<Observation> = searched.into_iter().filter_map(|s| s.1).collect();
+        if self.lost_streak >= self.config.lost_after && !candidates.is_empty() {
+            // Relocalising: the blind prediction correlated the camera with the map through
+            // a motion that did not happen. Re-measure the pose against the map as it stands
+            // instead of letting the correction drag the map along.
+            self.decorrelate_camera();
+        }
         let inlier_flags = self.one_point_ransac(&candidates);
         timings.association_ms = ms(t_assoc);
 
@@ -376,20 +381,21 @@ impl Slam {
             self.tracks[slot].last_seen = self.frame_index;
         }
 
-        // Tracking lost: report it, and restart the map when it lasts.
+        // Tracking lost: report it and keep the map. The filter goes on predicting, its
+        // covariance (and so every search region) grows, and the search cap widens with the
+        // streak, until the old landmarks are found again: relocalisation against the map,
+        // with the trajectory continuous. Frames without support are not held against the
+        // landmarks (a blank or blurred frame says nothing about them).
         let lost = predicted > 0 && supported.len() < 3
             || self.filter.slots.is_empty() && self.frame_index > 0;
+        let relocalised = !lost && self.lost_streak >= self.config.lost_after;
         self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
-        let mut reinitialised = false;
-        let mut deleted = 0;
-        if self.lost_streak >= self.config.lost_after {
-            deleted += self.filter.slots.len();
-            let all: Vec<usize> = (0..self.filter.slots.len()).collect();
-            self.remove(&all);
-            self.restart_at_current_pose();
-            self.lost_streak = 0;
-            reinitialised = true;
+        if !lost {
+            for s in &searched_slots {
+                self.tracks[*s].predicted += 1;
+            }
         }
+        let mut deleted = 0;
 
         let converted = self.convert_linear_landmarks();
         deleted += self.delete_bad_landmarks();
@@ -425,7 +431,7 @@ impl Slam {
             landmarks: self.filter.slots.len(),
             state_dim: self.filter.dim(),
             lost,
-            reinitialised,
+            relocalised,
             initialising: false,
             timings,
         })
@@ -678,7 +684,7 @@ impl Slam {
             landmarks: self.filter.slots.len(),
             state_dim: self.filter.dim(),
             lost: false,
-            reinitialised: false,
+            relocalised: false,
             initialising,
             timings,
         }
@@ -750,23 +756,13 @@ impl Slam {
         });
     }
 
-    /// A restart begins a new map anchored at the current pose estimate, as at start-up: the
-    /// pose covariance goes back to (almost) zero — nothing in the new map can be tied to the
-    /// old one — and the velocity keeps its estimate (the camera rarely stops when tracking
-    /// fails) with the prior's uncertainty.
-    fn restart_at_current_pose(&mut self) {
+    fn decorrelate_camera(&mut self) {
         let c = self.filter.motion.camera_dim();
-        let mut p = nalgebra::DMatrix::zeros(c, c);
-        for i in 0..super::ekf::POSE {
-            p[(i, i)] = 1e-12;
+        let n = self.filter.dim();
+        if n > c {
+            self.filter.p.view_mut((0, c), (c, n - c)).fill(0.0);
+            self.filter.p.view_mut((c, 0), (n - c, c)).fill(0.0);
         }
-        if c == 13 {
-            for i in 7..10 {
-                p[(i, i)] = self.config.velocity_sigma.powi(2);
-                p[(i + 3, i + 3)] = self.config.angular_velocity_sigma.powi(2);
-            }
-        }
-        self.filter.p = p;
     }
 
     fn convert_linear_landmarks(&mut self) -> usize {
