@@ -9,6 +9,7 @@ use clap::Args;
 use steernav::slam::camera::PinholeCamera;
 use steernav::slam::config::SlamConfig;
 use steernav::slam::figure::{slam_figure, EstimatedPose};
+use steernav::slam::kitti;
 use steernav::slam::motion::{relative_motion, MotionModel};
 use steernav::slam::sequence;
 use steernav::slam::synthetic::{SyntheticConfig, SyntheticSequence};
@@ -21,19 +22,26 @@ use super::{load_toml, DetectorArgs};
 #[derive(Args)]
 pub struct SlamCmd {
     /// The sequence: a TUM RGB-D folder (rgb.txt + rgb/), a EuRoC folder (cam0/data.csv +
-    /// cam0/data/), or a plain folder of frames sorted by name (timestamps from --fps).
+    /// cam0/data/), a KITTI odometry folder (image_0/ or image_l/, calib.txt, optional
+    /// times.txt and poses.txt), or a plain folder of frames sorted by name (timestamps from
+    /// --fps).
     sequence: PathBuf,
     /// Calibration: TOML with a [camera] table (fx, fy, cx, cy, width, height, optional k1,
-    /// k2, p1, p2, k3) or a EuRoC sensor.yaml. Defaults to the sequence's own sensor.yaml.
+    /// k2, p1, p2, k3), a EuRoC sensor.yaml or a KITTI calib.txt (row P0). Defaults to the
+    /// sequence's own sensor.yaml or calib.txt.
     #[arg(long, value_name = "FILE")]
     calib: Option<PathBuf>,
     /// Wheel odometry as a TUM trajectory of the camera; switches to the odometry motion
     /// model (u_k of eq 15 = relative motion between frames, interpolated at frame times).
     #[arg(long, value_name = "FILE")]
     odometry: Option<PathBuf>,
-    /// Estimated trajectory, TUM format (t tx ty tz qx qy qz qw), written frame by frame.
+    /// Estimated trajectory, written frame by frame (see --format).
     #[arg(long, value_name = "FILE", default_value = "traj.txt")]
     out: PathBuf,
+    /// Trajectory format: `tum` (t tx ty tz qx qy qz qw) or `kitti` (the 3×4 camera-to-world
+    /// matrix, 12 values per row, one row per frame).
+    #[arg(long, value_enum, default_value_t = TrajectoryFormat::Tum)]
+    format: TrajectoryFormat,
     /// Final map: landmarks with 3×3 covariances as JSON (.json) or points as PLY (.ply).
     #[arg(long, value_name = "FILE")]
     map: Option<PathBuf>,
@@ -43,17 +51,19 @@ pub struct SlamCmd {
     /// Per-frame CSV: counts (predicted, matched, inliers, …) and timings.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
-    /// Frame rate giving timestamps to a plain folder of frames.
-    #[arg(long, default_value_t = 30.0)]
-    fps: f64,
+    /// Frame rate giving timestamps to a plain folder of frames (default 30) or to a KITTI
+    /// folder without times.txt (default 10).
+    #[arg(long)]
+    fps: Option<f64>,
     /// Process at most this many frames.
     #[arg(long, value_name = "N")]
     max_frames: Option<usize>,
     /// TOML file with a [slam] table (every key of SlamConfig optional; see README).
     #[arg(long = "slam-config", value_name = "FILE")]
     slam_config: Option<PathBuf>,
-    /// Ground truth to evaluate against at the end (TUM, or EuRoC data.csv); defaults to
-    /// groundtruth.txt / groundtruth_tum.txt beside the frames.
+    /// Ground truth to evaluate against at the end (TUM, EuRoC data.csv, or KITTI pose rows,
+    /// one per frame); defaults to groundtruth.txt / groundtruth_tum.txt / poses.txt beside
+    /// the frames. Read and checked before the run.
     #[arg(long, value_name = "FILE")]
     ground_truth: Option<PathBuf>,
     #[command(flatten)]
@@ -66,12 +76,28 @@ struct SlamFile {
     slam: SlamConfig,
 }
 
+/// How a trajectory is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TrajectoryFormat {
+    /// TUM: `t tx ty tz qx qy qz qw`.
+    Tum,
+    /// KITTI odometry: 12 values of the 3×4 camera-to-world matrix per row.
+    Kitti,
+}
+
 #[derive(Args)]
 pub struct SlamEvalCmd {
-    /// Estimated trajectory (TUM format).
+    /// Estimated trajectory (TUM format, or KITTI pose rows).
     estimate: PathBuf,
-    /// Ground truth (TUM format, or EuRoC state_groundtruth_estimate0/data.csv).
+    /// Ground truth (TUM format, EuRoC state_groundtruth_estimate0/data.csv, or KITTI pose
+    /// rows).
     ground_truth: PathBuf,
+    /// Timestamps of KITTI pose rows: a KITTI times.txt (otherwise row i is at i / --fps).
+    #[arg(long, value_name = "FILE")]
+    times: Option<PathBuf>,
+    /// Frame rate of KITTI pose rows without --times.
+    #[arg(long, default_value_t = 10.0)]
+    fps: f64,
     /// Largest timestamp difference of a matched pair, seconds.
     #[arg(long, default_value_t = 0.02)]
     max_dt: f64,
@@ -116,7 +142,20 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 cmd.sequence.display()
             )
         })?;
-    let camera = PinholeCamera::load(&calib_path)?;
+    let camera = if calib_path.extension().is_some_and(|e| e == "txt") {
+        let first = &seq.frames[0].path;
+        let (width, height) = image::image_dimensions(first)
+            .with_context(|| format!("{}: cannot read the image size", first.display()))?;
+        kitti::read_calibration(&calib_path, width, height)?
+    } else {
+        PinholeCamera::load(&calib_path)?
+    };
+    let frame_times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
+    let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
+    let truth = match &truth_path {
+        Some(p) => Some(sequence::read_ground_truth(p, &frame_times)?),
+        None => None,
+    };
     let mut config = load_toml::<SlamFile>(cmd.slam_config.as_deref())?.slam;
     let odometry = match &cmd.odometry {
         Some(path) => {
@@ -137,7 +176,9 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let mut traj = std::io::BufWriter::new(
         std::fs::File::create(&cmd.out).with_context(|| out_err(&cmd.out))?,
     );
-    writeln!(traj, "# timestamp tx ty tz qx qy qz qw").with_context(|| out_err(&cmd.out))?;
+    if cmd.format == TrajectoryFormat::Tum {
+        writeln!(traj, "# timestamp tx ty tz qx qy qz qw").with_context(|| out_err(&cmd.out))?;
+    }
     let mut report = match &cmd.report {
         Some(path) => {
             let mut f = std::io::BufWriter::new(
@@ -202,7 +243,11 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             position: r.position.into(),
             orientation: nalgebra::Vector4::from(r.orientation),
         };
-        writeln!(traj, "{}", tum_line(&pose)).with_context(|| out_err(&cmd.out))?;
+        let line = match cmd.format {
+            TrajectoryFormat::Tum => tum_line(&pose),
+            TrajectoryFormat::Kitti => kitti::pose_row(&pose),
+        };
+        writeln!(traj, "{line}").with_context(|| out_err(&cmd.out))?;
         traj.flush().with_context(|| out_err(&cmd.out))?;
         if let Some((path, f)) = &mut report {
             let t = &r.timings;
@@ -275,11 +320,6 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         map.len()
     );
     println!("trajectory: {}", cmd.out.display());
-    let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
-    let truth = match &truth_path {
-        Some(p) => Some(sequence::read_ground_truth(p)?),
-        None => None,
-    };
     let estimate: Vec<Pose> = estimated.iter().map(|e| e.pose).collect();
     let mut aligned_truth = None;
     if let (Some(truth), Some(path)) = (&truth, &truth_path) {
@@ -347,8 +387,31 @@ pub fn slam_eval(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
     if !(cmd.max_dt.is_finite() && cmd.max_dt > 0.0) {
         bail!("--max-dt: {} must be finite and > 0", cmd.max_dt);
     }
-    let estimate = trajectory::read_tum(&cmd.estimate)?;
-    let truth = sequence::read_ground_truth(&cmd.ground_truth)?;
+    let kitti_times = |rows: usize| -> anyhow::Result<Vec<f64>> {
+        match &cmd.times {
+            Some(path) => Ok(kitti::read_times(path)?),
+            None => {
+                if !(cmd.fps.is_finite() && cmd.fps > 0.0) {
+                    bail!("--fps: {} must be finite and > 0", cmd.fps);
+                }
+                Ok((0..rows).map(|i| i as f64 / cmd.fps).collect())
+            }
+        }
+    };
+    let read = |path: &Path| -> anyhow::Result<Vec<Pose>> {
+        if kitti::looks_like_poses(path) {
+            let rows = std::fs::read_to_string(path)
+                .with_context(|| format!("{}: cannot read", path.display()))?
+                .lines()
+                .filter(|l| !l.trim().is_empty())
+                .count();
+            Ok(kitti::read_poses(path, &kitti_times(rows)?)?)
+        } else {
+            Ok(sequence::read_ground_truth(path, &[])?)
+        }
+    };
+    let estimate = read(&cmd.estimate)?;
+    let truth = read(&cmd.ground_truth)?;
     let e = trajectory::evaluate(&estimate, &truth, cmd.max_dt)?;
     if cmd.json {
         println!("{}", serde_json::to_string(&e)?);

@@ -13,6 +13,7 @@ pub mod config;
 pub mod ekf;
 pub mod figure;
 pub mod inverse_depth;
+pub mod kitti;
 pub mod klt;
 pub mod motion;
 pub mod rotation;

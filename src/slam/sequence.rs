@@ -1,5 +1,6 @@
 //! Image sequences for `steernav slam`: the TUM RGB-D layout (rgb.txt + rgb/ +
-//! groundtruth.txt), the EuRoC layout (cam0/data.csv + cam0/data/ + cam0/sensor.yaml), and a
+//! groundtruth.txt), the EuRoC layout (cam0/data.csv + cam0/data/ + cam0/sensor.yaml), the
+//! KITTI odometry layout (image_0/ or image_l/ + calib.txt + times.txt + poses.txt), and a
 //! plain folder of frames sorted by name with timestamps from a frame rate.
 
 use std::path::{Path, PathBuf};
@@ -18,22 +19,28 @@ pub struct SequenceFrame {
 /// An opened sequence.
 #[derive(Clone, Debug)]
 pub struct Sequence {
-    /// "tum", "euroc" or "folder".
+    /// "tum", "euroc", "kitti" or "folder".
     pub layout: &'static str,
     /// Frames whose file exists, in time order.
     pub frames: Vec<SequenceFrame>,
     /// Listed frames whose file is missing (skipped, reported).
     pub missing: Vec<PathBuf>,
-    /// A ground-truth trajectory found beside the frames (TUM format).
+    /// A ground-truth trajectory found beside the frames (TUM format, or KITTI poses.txt).
     pub ground_truth: Option<PathBuf>,
-    /// A calibration found beside the frames (EuRoC sensor.yaml).
+    /// A calibration found beside the frames (EuRoC sensor.yaml, KITTI calib.txt).
     pub calibration: Option<PathBuf>,
 }
 
 const IMAGE_EXTENSIONS: [&str; 7] = ["png", "jpg", "jpeg", "pgm", "ppm", "bmp", "tif"];
 
-/// Opens a sequence, recognising its layout; `fps` gives a plain folder its timestamps.
-pub fn open(dir: &Path, fps: f64) -> Result<Sequence> {
+/// Frame rate of a KITTI sequence without times.txt.
+pub const KITTI_FPS: f64 = 10.0;
+/// Frame rate of a plain folder of frames.
+pub const FOLDER_FPS: f64 = 30.0;
+
+/// Opens a sequence, recognising its layout; `fps` gives a plain folder (default
+/// [`FOLDER_FPS`]) or a KITTI folder without times.txt (default [`KITTI_FPS`]) its timestamps.
+pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
     if !dir.is_dir() {
         return Err(Error::Io {
             path: dir.to_path_buf(),
@@ -73,24 +80,50 @@ pub fn open(dir: &Path, fps: f64) -> Result<Sequence> {
             ground_truth,
             calibration: Some(cam.join("sensor.yaml")).filter(|p| p.is_file()),
         }
-    } else {
-        if !(fps.is_finite() && fps > 0.0) {
-            return Err(Error::config("fps", fps, "must be finite and > 0"));
+    } else if let Some(images) = ["image_0", "image_l"]
+        .iter()
+        .map(|d| dir.join(d))
+        .find(|d| d.is_dir())
+    {
+        let files = image_files(&images)?;
+        let times_path = dir.join("times.txt");
+        let timestamps: Vec<f64> = if times_path.is_file() {
+            let times = super::kitti::read_times(&times_path)?;
+            if times.len() < files.len() {
+                return Err(Error::Decode {
+                    path: times_path,
+                    reason: format!("{} timestamps for {} frames", times.len(), files.len()),
+                });
+            }
+            times
+        } else {
+            let fps = checked_fps(fps.unwrap_or(KITTI_FPS))?;
+            (0..files.len()).map(|i| i as f64 / fps).collect()
+        };
+        let calib = dir.join("calib.txt");
+        if !calib.is_file() {
+            return Err(Error::Io {
+                path: calib,
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    "a KITTI sequence needs its calib.txt beside the image folder",
+                ),
+            });
         }
-        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map_err(|source| Error::Io {
-                path: dir.to_path_buf(),
-                source,
-            })?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                p.is_file()
-                    && p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                        IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str())
-                    })
-            })
-            .collect();
-        files.sort();
+        Sequence {
+            layout: "kitti",
+            frames: files
+                .into_iter()
+                .zip(timestamps)
+                .map(|(path, timestamp)| SequenceFrame { timestamp, path })
+                .collect(),
+            missing: Vec::new(),
+            ground_truth: Some(dir.join("poses.txt")).filter(|p| p.is_file()),
+            calibration: Some(calib),
+        }
+    } else {
+        let fps = checked_fps(fps.unwrap_or(FOLDER_FPS))?;
+        let files = image_files(dir)?;
         Sequence {
             layout: "folder",
             frames: files
@@ -125,6 +158,32 @@ pub fn open(dir: &Path, fps: f64) -> Result<Sequence> {
         });
     }
     Ok(sequence)
+}
+
+fn checked_fps(fps: f64) -> Result<f64> {
+    if !(fps.is_finite() && fps > 0.0) {
+        return Err(Error::config("fps", fps, "must be finite and > 0"));
+    }
+    Ok(fps)
+}
+
+/// Image files of a folder, sorted by name.
+fn image_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        })
+        .collect();
+    files.sort();
+    Ok(files)
 }
 
 /// Reads a frame list (comments with `#`, fields split by commas or spaces); timestamps must
@@ -173,9 +232,12 @@ fn parse_list(
     Ok(frames)
 }
 
-/// Reads ground truth: a TUM file, or EuRoC's state_groundtruth_estimate0/data.csv
-/// (timestamp ns, position, quaternion w x y z, …).
-pub fn read_ground_truth(path: &Path) -> Result<Vec<super::trajectory::Pose>> {
+/// Reads ground truth: KITTI pose rows (row i at `frame_times[i]`), a TUM file, or EuRoC's
+/// state_groundtruth_estimate0/data.csv (timestamp ns, position, quaternion w x y z, …).
+pub fn read_ground_truth(path: &Path, frame_times: &[f64]) -> Result<Vec<super::trajectory::Pose>> {
+    if super::kitti::looks_like_poses(path) {
+        return super::kitti::read_poses(path, frame_times);
+    }
     if path.extension().is_some_and(|e| e == "csv") {
         let frames_like = std::fs::read_to_string(path).map_err(|source| Error::Io {
             path: path.to_path_buf(),
@@ -226,14 +288,54 @@ mod tests {
             "# header\n1.0 rgb/a.png\n1.1 rgb/b.png\n",
         )
         .unwrap();
-        let seq = open(dir.path(), 30.0).unwrap();
+        let seq = open(dir.path(), None).unwrap();
         assert_eq!(seq.layout, "tum");
         assert_eq!(seq.frames.len(), 1);
         assert_eq!(seq.missing.len(), 1);
         std::fs::write(dir.path().join("rgb.txt"), "1.0 rgb/a.png\n0.9 rgb/a.png\n").unwrap();
-        let message = open(dir.path(), 30.0).unwrap_err().to_string();
+        let message = open(dir.path(), None).unwrap_err().to_string();
         assert!(
             message.contains("line 2") && message.contains("out of order"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn kitti_layout_reads_times_calibration_and_poses() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("image_0")).unwrap();
+        for name in ["000000.png", "000001.png", "000002.png"] {
+            std::fs::write(dir.path().join("image_0").join(name), b"x").unwrap();
+        }
+        let message = open(dir.path(), None).unwrap_err().to_string();
+        assert!(message.contains("calib.txt"), "{message}");
+        std::fs::write(
+            dir.path().join("calib.txt"),
+            "P0: 700 0 600 0 0 700 180 0 0 0 1 0\n",
+        )
+        .unwrap();
+        let seq = open(dir.path(), None).unwrap();
+        assert_eq!(seq.layout, "kitti");
+        assert!(
+            (seq.frames[2].timestamp - 0.2).abs() < 1e-12,
+            "10 frames/s by default"
+        );
+        assert!(seq.ground_truth.is_none());
+        std::fs::write(dir.path().join("times.txt"), "0.0\n0.05\n").unwrap();
+        let message = open(dir.path(), None).unwrap_err().to_string();
+        assert!(message.contains("2 timestamps for 3 frames"), "{message}");
+        std::fs::write(dir.path().join("times.txt"), "0.0\n0.05\n0.11\n").unwrap();
+        let seq = open(dir.path(), None).unwrap();
+        assert_eq!(seq.frames[2].timestamp, 0.11);
+        let row = "1 0 0 0 0 1 0 0 0 0 1 0.5";
+        std::fs::write(dir.path().join("poses.txt"), format!("{row}\n{row}\n")).unwrap();
+        let seq = open(dir.path(), None).unwrap();
+        let times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
+        let message = read_ground_truth(seq.ground_truth.as_ref().unwrap(), &times)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("poses.txt") && message.contains("2 pose rows for 3 frames"),
             "{message}"
         );
     }
@@ -244,11 +346,11 @@ mod tests {
         for name in ["b.png", "a.png", "notes.txt"] {
             std::fs::write(dir.path().join(name), b"x").unwrap();
         }
-        let seq = open(dir.path(), 10.0).unwrap();
+        let seq = open(dir.path(), Some(10.0)).unwrap();
         assert_eq!(seq.layout, "folder");
         assert_eq!(seq.frames.len(), 2);
         assert!(seq.frames[0].path.ends_with("a.png"));
         assert!((seq.frames[1].timestamp - 0.1).abs() < 1e-12);
-        assert!(open(&dir.path().join("none"), 10.0).is_err());
+        assert!(open(&dir.path().join("none"), Some(10.0)).is_err());
     }
 }
