@@ -643,10 +643,10 @@ fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
     let ctx = match cmd.backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(steernav::gpu::GpuContext::shared()?),
-        Backend::Auto => match steernav::gpu::GpuContext::shared() {
+        Backend::Auto => match steernav::gpu::context::auto_context() {
             Ok(ctx) => Some(ctx),
-            Err(e) => {
-                eprintln!("warning: {e}; using the CPU backend");
+            Err(reason) => {
+                eprintln!("warning: {reason}; using the CPU backend");
                 None
             }
         },
@@ -775,6 +775,12 @@ fn info() -> anyhow::Result<ExitCode> {
     match steernav::gpu::GpuContext::shared() {
         Ok(ctx) => {
             println!("{}", ctx.describe());
+            match ctx.auto_refusal() {
+                None => println!("--backend auto: this GPU (a hardware adapter)"),
+                Some(reason) => println!(
+                    "--backend auto: the CPU path, because {reason}; --backend gpu still uses it"
+                ),
+            }
             Ok(ExitCode::SUCCESS)
         }
         Err(e) => {

@@ -101,11 +101,15 @@ impl Detector {
         let gpu = match backend {
             Backend::Cpu => None,
             Backend::Gpu => Some(GpuHarris::new(GpuContext::shared()?, plan.clone())),
-            Backend::Auto => match GpuContext::shared() {
+            Backend::Auto => match crate::gpu::context::auto_context() {
                 Ok(ctx) => Some(GpuHarris::new(ctx, plan.clone())),
-                Err(e) if gpu_required() => return Err(e),
-                Err(e) => {
-                    warn_once(&e.to_string());
+                Err(reason) => {
+                    // A missing adapter is an error when a GPU is required; a software one
+                    // is never what `auto` should pick.
+                    if gpu_required() && GpuContext::shared().is_err() {
+                        return Err(Error::NoGpu(reason));
+                    }
+                    warn_once(&reason);
                     None
                 }
             },

@@ -76,6 +76,14 @@ impl GpuContext {
         })
     }
 
+    /// Whether `--backend auto` may use this adapter: only hardware (integrated, discrete or
+    /// virtual GPUs). A software rasterizer such as Mesa's llvmpipe (lavapipe) runs the
+    /// shaders on the CPU, two orders of magnitude slower than the CPU path itself, so `auto`
+    /// takes the CPU path instead; `--backend gpu` still uses it when asked (CI does).
+    pub fn auto_refusal(&self) -> Option<String> {
+        auto_refusal(&self.info.name, self.info.device_type)
+    }
+
     /// The compute pipelines of this context, built on first use.
     pub fn pipelines(&self) -> &super::pipelines::Pipelines {
         self.pipelines
@@ -110,7 +118,49 @@ impl GpuContext {
     }
 }
 
+/// Why `--backend auto` would not use an adapter of this name and type, or `None` when it
+/// would (see [`GpuContext::auto_refusal`]).
+pub fn auto_refusal(name: &str, device_type: wgpu::DeviceType) -> Option<String> {
+    match device_type {
+        wgpu::DeviceType::IntegratedGpu
+        | wgpu::DeviceType::DiscreteGpu
+        | wgpu::DeviceType::VirtualGpu => None,
+        other => Some(format!(
+            "the only adapter, {name}, is not a hardware GPU (device type {other:?}: a software rasterizer runs shaders on the CPU)"
+        )),
+    }
+}
+
+/// The context `--backend auto` uses: the shared one when its adapter is a hardware GPU,
+/// otherwise the reason it is not used.
+pub fn auto_context() -> std::result::Result<Arc<GpuContext>, String> {
+    let ctx = GpuContext::shared().map_err(|e| e.to_string())?;
+    match ctx.auto_refusal() {
+        None => Ok(ctx),
+        Some(reason) => Err(reason),
+    }
+}
+
 /// Whether the environment demands a GPU (CI sets `STEERNAV_REQUIRE_GPU=1`).
 pub fn gpu_required() -> bool {
     std::env::var("STEERNAV_REQUIRE_GPU").is_ok_and(|v| v == "1" || v.eq_ignore_ascii_case("true"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_refuses_software_adapters_and_takes_hardware_ones() {
+        let lavapipe = auto_refusal("llvmpipe (LLVM 15.0.6, 256 bits)", wgpu::DeviceType::Cpu);
+        assert!(lavapipe.is_some_and(|r| r.contains("llvmpipe") && r.contains("Cpu")));
+        assert!(auto_refusal("unknown", wgpu::DeviceType::Other).is_some());
+        for t in [
+            wgpu::DeviceType::DiscreteGpu,
+            wgpu::DeviceType::IntegratedGpu,
+            wgpu::DeviceType::VirtualGpu,
+        ] {
+            assert!(auto_refusal("NVIDIA H200", t).is_none());
+        }
+    }
 }
