@@ -313,9 +313,10 @@ mod tests {
     use super::*;
 
     fn texture(x: f64, y: f64) -> f32 {
-        (0.5 + 0.2 * (x * 0.21).sin() * (y * 0.17).cos()
+        // Structure at every scale, as in a real image: each pyramid level sees some.
+        (0.5 + 0.1 * (x * 0.21).sin() * (y * 0.17).cos()
             + 0.15 * (0.05 * x + 0.09 * y).sin()
-            + 0.1 * ((x * 0.013) * (y * 0.011)).cos()) as f32
+            + 0.2 * (x * 0.031).sin() * (y * 0.027).cos()) as f32
     }
 
     fn plane(w: usize, h: usize, shift: Vector2<f64>) -> Vec<f32> {
