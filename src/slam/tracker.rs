@@ -408,32 +408,17 @@ impl Slam {
         self.previous = Some(pyramid);
         self.frame_index += 1;
         timings.total_ms = ms(start);
-        let cov = self.filter.position_covariance();
-        let qn = self.filter.orientation();
-        let p = self.filter.position();
         Ok(FrameReport {
-            timestamp,
-            position: [p.x, p.y, p.z],
-            orientation: [qn[0], qn[1], qn[2], qn[3]],
-            position_covariance: [
-                [cov[(0, 0)], cov[(0, 1)], cov[(0, 2)]],
-                [cov[(1, 0)], cov[(1, 1)], cov[(1, 2)]],
-                [cov[(2, 0)], cov[(2, 1)], cov[(2, 2)]],
-            ],
             predicted,
             matched: candidates.len(),
             descriptor_rejected,
             inliers: inlier_count,
             rescued: rescued.len(),
-            created,
             deleted,
             converted,
-            landmarks: self.filter.slots.len(),
-            state_dim: self.filter.dim(),
             lost,
             relocalised,
-            initialising: false,
-            timings,
+            ..self.report(timestamp, timings, created, false)
         })
     }
 
@@ -597,12 +582,32 @@ impl Slam {
             .collect();
         self.bootstrap = None;
         self.started = true;
-        self.seed_landmarks(frame, &inliers)
+        let visible = self.visible_pixels();
+        let limit = (2 * self.config.target_visible).saturating_sub(visible.len());
+        self.add_at_free_cells(frame, &visible, inliers, limit)
     }
 
-    /// Adds landmarks at the given priors, at most one per free grid cell, up to
-    /// `target_visible` visible landmarks.
-    fn seed_landmarks(&mut self, frame: &Frame, priors: &[(Vector2<f64>, f64, f64)]) -> usize {
+    /// Pixels of the landmarks predicted inside the image.
+    fn visible_pixels(&self) -> Vec<Vector2<f64>> {
+        let cam = &self.filter.camera;
+        (0..self.filter.slots.len())
+            .filter_map(|slot| self.filter.predict_observation(slot))
+            .map(|p| p.pixel)
+            .filter(|z| cam.contains(z, 0.0))
+            .collect()
+    }
+
+    /// Starts landmarks at `priors` (pixel, ρ, σ_ρ), best first, at most one per grid cell
+    /// free of `visible` landmarks and at most `limit` of them. Landmarks start at the pixel
+    /// centre, where the template is cut without resampling (the rounding is far inside the
+    /// 1-pixel measurement noise). Returns how many were added.
+    fn add_at_free_cells(
+        &mut self,
+        frame: &Frame,
+        visible: &[Vector2<f64>],
+        priors: impl IntoIterator<Item = (Vector2<f64>, f64, f64)>,
+        limit: usize,
+    ) -> usize {
         let cam = self.filter.camera.clone();
         let margin = (2 * self.config.template_half + 2) as f64;
         let [gx, gy] = self.config.grid;
@@ -612,18 +617,12 @@ impl Slam {
             cy * gx + cx
         };
         let mut occupied = vec![false; gx * gy];
-        let mut visible = 0;
-        for slot in 0..self.filter.slots.len() {
-            if let Some(p) = self.filter.predict_observation(slot) {
-                if cam.contains(&p.pixel, 0.0) {
-                    occupied[cell(&p.pixel)] = true;
-                    visible += 1;
-                }
-            }
+        for z in visible {
+            occupied[cell(z)] = true;
         }
         let mut chosen = Vec::new();
-        for &(z, rho, sigma) in priors {
-            if visible + chosen.len() >= self.config.target_visible.max(1) * 2 {
+        for (z, rho, sigma) in priors {
+            if chosen.len() >= limit {
                 break;
             }
             let z = Vector2::new(z.x.round(), z.y.round());
@@ -654,6 +653,8 @@ impl Slam {
         chosen.len()
     }
 
+    /// A frame report with the filter's current pose and landmark counts; the association
+    /// counts are zero (the caller fills them in when there was an association).
     fn report(
         &self,
         timestamp: f64,
@@ -820,13 +821,7 @@ impl Slam {
         frame: &Frame,
         detector: &Detector,
     ) -> Result<(usize, f64, f64)> {
-        let cam = self.filter.camera.clone();
-        let margin = (2 * self.config.template_half + 2) as f64;
-        let visible: Vec<Vector2<f64>> = (0..self.filter.slots.len())
-            .filter_map(|slot| self.filter.predict_observation(slot))
-            .map(|p| p.pixel)
-            .filter(|z| cam.contains(z, 0.0))
-            .collect();
+        let visible = self.visible_pixels();
         if visible.len() >= self.config.target_visible || self.frame_index < self.detect_after {
             return Ok((0, 0.0, 0.0));
         }
@@ -834,61 +829,20 @@ impl Slam {
         let detection = detector.detect(frame)?;
         let detection_ms = ms(t_detect);
         let t_create = Instant::now();
-        let [gx, gy] = self.config.grid;
-        let cell = |z: &Vector2<f64>| -> usize {
-            let cx = ((z.x / cam.width as f64) * gx as f64).clamp(0.0, gx as f64 - 1.0) as usize;
-            let cy = ((z.y / cam.height as f64) * gy as f64).clamp(0.0, gy as f64 - 1.0) as usize;
-            cy * gx + cx
-        };
-        let mut occupied = vec![false; gx * gy];
-        for z in &visible {
-            occupied[cell(z)] = true;
-        }
         let want = (self.config.target_visible - visible.len()).min(self.config.max_new_per_frame);
-        let mut pixels = Vec::new();
-        for kp in &detection.keypoints {
-            if pixels.len() >= want {
-                break;
-            }
-            // Landmarks start at the keypoint's pixel centre, where the template is cut
-            // without resampling (the rounding is far inside the 1-pixel measurement noise).
-            let z = Vector2::new(kp.x.round() as f64, kp.y.round() as f64);
-            if !cam.contains(&z, margin) {
-                continue;
-            }
-            let c = cell(&z);
-            if occupied[c] {
-                continue;
-            }
-            let template = Template::capture(
-                frame,
-                z,
-                2 * self.config.template_half,
-                self.filter.position(),
-                self.filter.orientation(),
-            );
-            if association::normalised(&template.patch).is_none() {
-                continue;
-            }
-            occupied[c] = true;
-            pixels.push(z);
-            self.tracks.push(Track {
-                template,
-                predicted: 0,
-                matched: 0,
-                last_seen: self.frame_index,
-                last_pixel: Some(z),
-            });
-        }
-        if pixels.is_empty() {
-            self.detect_after = self.frame_index + self.config.redetect_interval;
-        }
-        self.filter.add_landmarks(
-            &pixels,
+        let (rho, sigma) = (
             self.config.initial_inverse_depth,
             self.config.inverse_depth_sigma,
         );
-        Ok((pixels.len(), detection_ms, ms(t_create)))
+        let priors = detection
+            .keypoints
+            .iter()
+            .map(|kp| (Vector2::new(kp.x as f64, kp.y as f64), rho, sigma));
+        let created = self.add_at_free_cells(frame, &visible, priors, want);
+        if created == 0 {
+            self.detect_after = self.frame_index + self.config.redetect_interval;
+        }
+        Ok((created, detection_ms, ms(t_create)))
     }
 
     /// Landmarks as Euclidean points with their 3×3 covariances (inverse-depth landmarks at
