@@ -204,6 +204,14 @@ impl DetectorArgs {
     fn detector(&self) -> anyhow::Result<Detector> {
         Ok(Detector::new(&self.config()?, self.backend)?)
     }
+
+    /// The detector with `base` in place of the library default under the file and flags.
+    fn detector_from(&self, base: DetectorConfig) -> anyhow::Result<Detector> {
+        Ok(Detector::new(
+            &self.settings.config_from(base)?,
+            self.backend,
+        )?)
+    }
 }
 
 /// Detector settings: a TOML file and the flags that override it.
@@ -234,6 +242,11 @@ struct SettingsArgs {
 
 impl SettingsArgs {
     fn config(&self) -> anyhow::Result<DetectorConfig> {
+        self.config_from(DetectorConfig::default())
+    }
+
+    /// `base` (when no --config file is given) with the flags applied.
+    fn config_from(&self, base: DetectorConfig) -> anyhow::Result<DetectorConfig> {
         let mut cfg = match &self.config {
             Some(path) => {
                 let text = std::fs::read_to_string(path)
@@ -242,7 +255,7 @@ impl SettingsArgs {
                     anyhow::anyhow!("{}: malformed config: {reason}", path.display())
                 })?
             }
-            None => DetectorConfig::default(),
+            None => base,
         };
         if let Some(v) = self.orientations {
             cfg.orientations = v;

@@ -66,6 +66,8 @@ pub struct SlamCmd {
     /// the frames. Read and checked before the run.
     #[arg(long, value_name = "FILE")]
     ground_truth: Option<PathBuf>,
+    /// Detector flags; without --config, slam starts from the tracking preset (6
+    /// orientations, 3 scales) rather than detect's defaults.
     #[command(flatten)]
     detector: DetectorArgs,
 }
@@ -166,7 +168,9 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let detector = cmd.detector.detector()?;
+    let detector = cmd
+        .detector
+        .detector_from(steernav::DetectorConfig::tracking())?;
     let mut slam = Slam::new(camera.clone(), config)?;
     for path in &seq.missing {
         eprintln!("warning: {}: listed but missing; skipped", path.display());

@@ -37,8 +37,12 @@ pub enum MotionModel {
 
 impl Default for MotionModel {
     fn default() -> Self {
+        // In map units: a monocular map's scale follows the inverse-depth prior (median depth
+        // 1/ρ₀ = 2 units), so a car at 12 m/s among 15 m depths moves 1.6 units/s and a
+        // hand-held camera in a room about 0.3. 1 unit/s² covers both; 4 let the predictions
+        // of a car wander by tens of pixels (CHANGELOG, issue 10).
         MotionModel::ConstantVelocity {
-            linear_acceleration: 4.0,
+            linear_acceleration: 1.0,
             angular_acceleration: 6.0,
         }
     }

@@ -119,9 +119,6 @@ struct Bootstrap {
     /// Pixels in the reference frame and where KLT has followed them to.
     start: Vec<Vector2<f64>>,
     current: Vec<Vector2<f64>>,
-    /// Distance travelled per second to give the two-view translation; `None` at start-up,
-    /// where the scale follows from the inverse-depth prior instead.
-    speed: Option<f64>,
 }
 
 impl Slam {
@@ -220,7 +217,14 @@ impl Slam {
         let previous = self.previous.take();
         let lost_streak = self.lost_streak;
         if !self.started {
-            let report = self.initialise(frame, timestamp, previous.as_ref(), &pyramid, start);
+            let report = self.initialise(
+                frame,
+                timestamp,
+                detector,
+                previous.as_ref(),
+                &pyramid,
+                start,
+            );
             self.previous = Some(pyramid);
             self.frame_index += 1;
             return report;
@@ -429,6 +433,7 @@ impl Slam {
         &mut self,
         frame: &Frame,
         timestamp: f64,
+        detector: &Detector,
         previous: Option<&Pyramid>,
         pyramid: &Pyramid,
         start: Instant,
@@ -464,6 +469,20 @@ impl Slam {
             created = self.try_seat(frame, timestamp);
             timings.filter_ms = ms(t);
         }
+        let waited = self
+            .bootstrap
+            .as_ref()
+            .map_or(0.0, |b| timestamp - b.timestamp);
+        if !self.started && followed >= MIN_BOOTSTRAP_POINTS && waited >= STATIONARY_START_AFTER {
+            // The points stay put: the camera is (nearly) at rest, which is the paper's own
+            // start — the filter at rest, landmarks at the inverse-depth prior.
+            self.bootstrap = None;
+            self.started = true;
+            let (n, detection_ms, creation_ms) = self.create_landmarks(frame, detector)?;
+            created = n;
+            timings.detection_ms = detection_ms;
+            timings.filter_ms += creation_ms;
+        }
         if !self.started && followed < MIN_BOOTSTRAP_POINTS {
             // (Re)start the reference here.
             let t = Instant::now();
@@ -476,7 +495,6 @@ impl Slam {
                 orientation: self.filter.orientation(),
                 start: points.clone(),
                 current: points,
-                speed: None,
             });
         }
         timings.total_ms = ms(start);
@@ -529,11 +547,9 @@ impl Slam {
             .collect();
         inverse_depths.sort_by(f64::total_cmp);
         let median_rho = inverse_depths[inverse_depths.len() / 2];
-        // Metres per unit of two-view translation.
-        let scale = match b.speed {
-            Some(speed) => speed * elapsed,
-            None => median_rho / self.config.initial_inverse_depth.max(1e-6),
-        };
+        // Map units per unit of two-view translation: the median landmark lands at the
+        // inverse-depth prior ρ₀, as a landmark started from one view would.
+        let scale = median_rho / self.config.initial_inverse_depth.max(1e-6);
         let rot0 = rotation::matrix(&b.orientation);
         // Camera 1 in camera 0's frame: centre −Rᵀt, orientation Rᵀ.
         let centre = -(pose.rotation.transpose() * pose.translation) * scale;
@@ -887,6 +903,9 @@ pub struct MapPoint {
 /// rejected it, and the KLT-tracked pixel.
 type Searched = (usize, Option<Observation>, bool, Option<Vector2<f64>>);
 
+/// Seconds without enough parallax after which the camera is taken to be at rest and the
+/// filter starts there, as in the paper.
+const STATIONARY_START_AFTER: f64 = 1.0;
 /// Fewest points (followed, then inliers) for a two-view estimate.
 const MIN_BOOTSTRAP_POINTS: usize = 20;
 /// Parallax, radians, that a quarter of the inliers must reach for the two views to fix the
