@@ -1,5 +1,5 @@
 //! Monocular EKF SLAM end to end on the generated room sequence: convergence with the
-//! constant-velocity and the odometry motion models, a consistent covariance, tracking lost
+//! constant-velocity and the odometry motion models, forward driving at 10 Hz, a consistent covariance, tracking lost
 //! on blank frames and recovered against the kept map, the GPU detector feeding the filter, and bad input.
 
 mod common;
@@ -8,7 +8,7 @@ use nalgebra::{DMatrix, SymmetricEigen, Vector3, Vector4};
 use steernav::slam::camera::PinholeCamera;
 use steernav::slam::config::SlamConfig;
 use steernav::slam::motion::{relative_motion, MotionModel, OdometryStep};
-use steernav::slam::synthetic::{SyntheticConfig, SyntheticSequence};
+use steernav::slam::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::tracker::Slam;
 use steernav::slam::trajectory::{evaluate, Pose};
 use steernav::synth::Rng;
@@ -63,6 +63,33 @@ fn constant_velocity_filter_converges_on_the_generated_sequence() {
     assert!(error.ate_rmse < 0.03 * length, "{error:?}");
     assert_eq!(lost, 0, "tracking must not be lost on a textured room");
     assert!(slam.map().len() >= 15);
+    assert_covariance_is_consistent(&slam.filter().p);
+}
+
+#[test]
+fn forward_driving_at_10_hz_keeps_tracking() {
+    let seq = SyntheticSequence::new(SyntheticConfig::for_motion(SyntheticMotion::Drive)).unwrap();
+    let detector = Detector::new(&DetectorConfig::tracking(), Backend::Cpu).unwrap();
+    let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
+    let mut estimate = Vec::new();
+    let mut lost = 0;
+    for (k, truth) in seq.poses.iter().enumerate() {
+        let report = slam
+            .process(&seq.render(k), truth.timestamp, None, &detector)
+            .unwrap();
+        lost += usize::from(report.lost);
+        estimate.push(pose_of(&report));
+    }
+    let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
+    let length = seq.path_length();
+    eprintln!(
+        "drive: ATE {:.3} m on a {length:.1} m path ({:.2}%)",
+        error.ate_rmse,
+        100.0 * error.ate_rmse / length
+    );
+    assert!(length > 50.0, "a car-like path: {length} m");
+    assert_eq!(lost, 0, "no frame may be lost while driving");
+    assert!(error.ate_rmse <= 0.02 * length, "{error:?}");
     assert_covariance_is_consistent(&slam.filter().p);
 }
 

@@ -34,6 +34,9 @@ pub struct SlamConfig {
     /// forward–backward check already vouches for it; the warped template only guards
     /// against drift, and its warp is least reliable while the depth is uncertain).
     pub min_tracked_correlation: f32,
+    /// A matched landmark's template is cut again from the current frame once the camera
+    /// has moved this fraction of the landmark's depth since it was cut.
+    pub template_refresh: f64,
     /// Largest difference of any entropy of the descriptor (eq 10) accepted, bits.
     pub descriptor_tolerance: f32,
     /// Pixel distance under which a match supports a 1-point RANSAC hypothesis.
@@ -79,6 +82,7 @@ impl Default for SlamConfig {
             max_search_extent: 40.0,
             min_correlation: 0.8,
             min_tracked_correlation: 0.5,
+            template_refresh: 0.4,
             descriptor_tolerance: 1.0,
             ransac_threshold: 2.0,
             ransac_confidence: 0.99,
@@ -110,6 +114,7 @@ impl SlamConfig {
             ("slam.ransac_threshold", self.ransac_threshold),
             ("slam.rescue_gate", self.rescue_gate),
             ("slam.linearity_threshold", self.linearity_threshold),
+            ("slam.template_refresh", self.template_refresh),
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {

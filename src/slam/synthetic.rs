@@ -1,7 +1,9 @@
-//! A synthetic monocular sequence with exact ground truth: a camera moving inside a room whose
+//! A synthetic monocular sequence with exact ground truth: a camera moving inside a box whose
 //! six walls carry seeded procedural textures ([`crate::synth::textured_scene`]), rendered by
-//! ray casting through the calibrated (optionally distorted) camera. Tests use it to check
-//! that the filter converges; `steernav slam-synth` writes it in the TUM RGB-D layout.
+//! ray casting through the calibrated (optionally distorted) camera. Two motions: a hand-held
+//! loop in a room, and a car driving down a street-sized box at 10 Hz with turns (scene
+//! depths 3–50 m). Tests use it to check that the filter converges; `steernav slam-synth`
+//! writes it in the TUM RGB-D layout.
 
 use std::f64::consts::TAU;
 use std::io::Write;
@@ -17,10 +19,24 @@ use super::trajectory::{write_tum, Pose};
 use crate::error::{Error, Result};
 use crate::image::Frame;
 
+/// How the synthetic camera moves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SyntheticMotion {
+    /// A hand-held loop in a room: sideways sway, yaw and pitch oscillations.
+    #[default]
+    Room,
+    /// A car: forward at `speed` along +z, heading swinging by ±`amplitude` radians over
+    /// `period` seconds, the camera `camera_height` metres above the floor.
+    Drive,
+}
+
 /// Parameters of a synthetic sequence.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SyntheticConfig {
+    /// The trajectory.
+    pub motion: SyntheticMotion,
     /// Image width, pixels.
     pub width: u32,
     /// Image height, pixels.
@@ -35,8 +51,13 @@ pub struct SyntheticConfig {
     pub fps: f64,
     /// Half-extent of the room (x, y, z), metres; the camera starts at its centre.
     pub room: [f64; 3],
-    /// Amplitude of the sideways motion, metres.
+    /// Room: amplitude of the sideways motion, metres. Drive: amplitude of the heading
+    /// swing, radians.
     pub amplitude: f64,
+    /// Drive: forward speed, m/s.
+    pub speed: f64,
+    /// Drive: height of the camera above the floor, metres.
+    pub camera_height: f64,
     /// Duration of one loop of the trajectory, seconds (independent of `frames`, so a short
     /// sequence is the start of a long one).
     pub period: f64,
@@ -57,9 +78,35 @@ impl Default for SyntheticConfig {
             fps: 30.0,
             room: [3.0, 1.5, 4.0],
             amplitude: 0.5,
+            speed: 10.0,
+            camera_height: 1.6,
             period: 8.0,
             texels_per_metre: 160.0,
             seed: 7,
+            motion: SyntheticMotion::Room,
+        }
+    }
+}
+
+impl SyntheticConfig {
+    /// The defaults of a motion: the room loop ([`Default`]) or a drive — 10 Hz, 10 m/s,
+    /// heading ±0.25 rad over 8 s, in a box 16 m wide, 6 m high and 120 m long whose side
+    /// walls pass at 3–11 m and whose far wall starts 95 m ahead.
+    pub fn for_motion(motion: SyntheticMotion) -> Self {
+        match motion {
+            SyntheticMotion::Room => Self::default(),
+            SyntheticMotion::Drive => Self {
+                motion,
+                frames: 60,
+                fps: 10.0,
+                room: [8.0, 3.0, 60.0],
+                amplitude: 0.25,
+                speed: 10.0,
+                camera_height: 1.6,
+                period: 8.0,
+                texels_per_metre: 24.0,
+                ..Self::default()
+            },
         }
     }
 }
@@ -86,6 +133,14 @@ impl SyntheticSequence {
             || config.period.is_nan()
             || config.period <= 0.0
             || !(config.fov_deg > 1.0 && config.fov_deg < 170.0)
+            || !config
+                .room
+                .iter()
+                .all(|r| r.is_finite() && *r > 0.1 && *r < 1e4)
+            || !(config.texels_per_metre.is_finite() && config.texels_per_metre > 0.0)
+            || !(config.amplitude.is_finite() && config.amplitude.abs() < 1e3)
+            || !(config.speed.is_finite() && config.speed.abs() < 1e3)
+            || !(config.camera_height > 0.0 && config.camera_height < 2.0 * config.room[1])
         {
             return Err(Error::config(
                 "synthetic",
@@ -93,7 +148,7 @@ impl SyntheticSequence {
                     "frames={} fps={} fov={}",
                     config.frames, config.fps, config.fov_deg
                 ),
-                "needs frames >= 1, fps > 0, period > 0, fov in (1, 170) degrees",
+                "needs frames >= 1, fps > 0, period > 0, fov in (1, 170) degrees, room half-extents in (0.1, 1e4) m, texels_per_metre > 0, |amplitude| and |speed| < 1e3, camera_height inside the room",
             ));
         }
         crate::image::check_size("synthetic", config.width, config.height)?;
@@ -132,29 +187,10 @@ impl SyntheticSequence {
                 camera.back_project(z).0
             })
             .collect();
-        let period = config.period;
-        let poses = (0..config.frames)
-            .map(|k| {
-                let t = k as f64 / config.fps;
-                let phase = TAU * t / period;
-                let a = config.amplitude;
-                let position = Vector3::new(
-                    a * phase.sin(),
-                    0.15 * a * (2.0 * phase).sin(),
-                    0.6 * a * (1.0 - phase.cos()),
-                );
-                let orientation = rotation::from_rotation_vector(&Vector3::new(
-                    0.06 * (1.3 * phase).sin(),
-                    0.3 * phase.sin(),
-                    0.05 * (0.7 * phase).sin(),
-                ));
-                Pose {
-                    timestamp: t,
-                    position,
-                    orientation,
-                }
-            })
-            .collect();
+        let poses = match config.motion {
+            SyntheticMotion::Room => room_loop(&config),
+            SyntheticMotion::Drive => drive(&config),
+        };
         Ok(Self {
             config,
             camera,
@@ -256,6 +292,60 @@ impl SyntheticSequence {
             .map(|w| (w[1].position - w[0].position).norm())
             .sum()
     }
+}
+
+/// The hand-held loop: sway, yaw and pitch, starting at the origin looking along +z.
+fn room_loop(config: &SyntheticConfig) -> Vec<Pose> {
+    let period = config.period;
+    (0..config.frames)
+        .map(|k| {
+            let t = k as f64 / config.fps;
+            let phase = TAU * t / period;
+            let a = config.amplitude;
+            let position = Vector3::new(
+                a * phase.sin(),
+                0.15 * a * (2.0 * phase).sin(),
+                0.6 * a * (1.0 - phase.cos()),
+            );
+            let orientation = rotation::from_rotation_vector(&Vector3::new(
+                0.06 * (1.3 * phase).sin(),
+                0.3 * phase.sin(),
+                0.05 * (0.7 * phase).sin(),
+            ));
+            Pose {
+                timestamp: t,
+                position,
+                orientation,
+            }
+        })
+        .collect()
+}
+
+/// The drive: heading ψ(t) = amplitude · sin(2πt / period) about the vertical (y points
+/// down), position integrated from the speed along the heading, starting 25 m into the box.
+fn drive(config: &SyntheticConfig) -> Vec<Pose> {
+    let heading = |t: f64| config.amplitude * (TAU * t / config.period).sin();
+    let height = config.room[1] - config.camera_height;
+    let mut position = Vector3::new(0.0, height, 25.0 - config.room[2]);
+    let substeps = 50;
+    let dt = 1.0 / (config.fps * substeps as f64);
+    let mut t = 0.0;
+    let mut poses = Vec::with_capacity(config.frames);
+    for k in 0..config.frames {
+        if k > 0 {
+            for _ in 0..substeps {
+                let psi = heading(t + 0.5 * dt);
+                position += Vector3::new(psi.sin(), 0.0, psi.cos()) * (config.speed * dt);
+                t += dt;
+            }
+        }
+        poses.push(Pose {
+            timestamp: k as f64 / config.fps,
+            position,
+            orientation: rotation::from_rotation_vector(&Vector3::new(0.0, heading(t), 0.0)),
+        });
+    }
+    poses
 }
 
 #[derive(Serialize)]

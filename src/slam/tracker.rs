@@ -375,9 +375,27 @@ impl Slam {
         } else {
             rescued.clear();
         }
+        let (r, q) = (self.filter.position(), self.filter.orientation());
         for obs in inliers.iter().chain(&rescued) {
-            if supported.contains(&obs.slot) {
-                self.tracks[obs.slot].last_pixel = Some(obs.pixel);
+            if !supported.contains(&obs.slot) {
+                continue;
+            }
+            self.tracks[obs.slot].last_pixel = Some(obs.pixel);
+            // Refresh the template once the view has moved far from where it was cut: the
+            // warp through a plane facing the first camera fails on the oblique walls and
+            // roads of forward motion. Only pixels the update accepted refresh it.
+            let Some(point) = self.filter.landmark_point(obs.slot) else {
+                continue;
+            };
+            let template = &self.tracks[obs.slot].template;
+            let depth = (point - r).norm();
+            if depth > 1e-9 && (r - template.position).norm() > self.config.template_refresh * depth
+            {
+                let radius = template.radius;
+                let fresh = Template::capture(frame, obs.pixel, radius, r, q);
+                if association::normalised(&fresh.patch).is_some() {
+                    self.tracks[obs.slot].template = fresh;
+                }
             }
         }
         for &slot in &supported {
