@@ -26,7 +26,7 @@ pub enum SyntheticMotion {
     /// A hand-held loop in a room: sideways sway, yaw and pitch oscillations.
     #[default]
     Room,
-    /// A car: forward at `speed` along +z, heading swinging by ±`amplitude` radians over
+    /// A car: forward at about `speed` along +z, heading swinging by ±`amplitude` radians over
     /// `period` seconds, the camera `camera_height` metres above the floor.
     Drive,
 }
@@ -54,7 +54,8 @@ pub struct SyntheticConfig {
     /// Room: amplitude of the sideways motion, metres. Drive: amplitude of the heading
     /// swing, radians.
     pub amplitude: f64,
-    /// Drive: forward speed, m/s.
+    /// Drive: mean forward speed, m/s; it swings by ±30% over 1.5 periods (braking and
+    /// accelerating), so a constant step length is not the right answer.
     pub speed: f64,
     /// Drive: height of the camera above the floor, metres.
     pub camera_height: f64,
@@ -334,8 +335,10 @@ fn drive(config: &SyntheticConfig) -> Vec<Pose> {
     for k in 0..config.frames {
         if k > 0 {
             for _ in 0..substeps {
-                let psi = heading(t + 0.5 * dt);
-                position += Vector3::new(psi.sin(), 0.0, psi.cos()) * (config.speed * dt);
+                let mid = t + 0.5 * dt;
+                let psi = heading(mid);
+                let speed = config.speed * (1.0 + 0.3 * (TAU * mid / (1.5 * config.period)).sin());
+                position += Vector3::new(psi.sin(), 0.0, psi.cos()) * (speed * dt);
                 t += dt;
             }
         }
