@@ -94,17 +94,18 @@ struct NavReplayCmd {
 
 #[derive(Args)]
 struct BenchCmd {
-    /// What to time: detect (every stage of the detector per image size) or nav (GIST per
-    /// image and the neural field at B = 1, 64, 4096).
-    #[arg(long, default_value = "detect", value_parser = ["detect", "nav"])]
+    /// What to time: detect (every stage of the detector per image size), nav (GIST per
+    /// image and the neural field at B = 1, 64, 4096) or slam (the whole SLAM loop per frame
+    /// on a generated 10 Hz drive, split per stage).
+    #[arg(long, default_value = "detect", value_parser = ["detect", "nav", "slam"])]
     suite: String,
-    /// Image sizes (generated textured scenes), WxH separated by commas (detect suite).
-    #[arg(
-        long,
-        default_value = "320x240,640x480,1280x720,1920x1080",
-        value_name = "LIST"
-    )]
-    sizes: String,
+    /// Image sizes, WxH separated by commas [default: 320x240,640x480,1280x720,1920x1080
+    /// for detect; 640x480,1241x376 for slam].
+    #[arg(long, value_name = "LIST")]
+    sizes: Option<String>,
+    /// Frames of the generated drive per size and backend (slam suite).
+    #[arg(long, default_value_t = 100)]
+    frames: usize,
     /// Backends to time: cpu, gpu or both (cpu,gpu).
     #[arg(long, default_value = "cpu,gpu", value_name = "LIST")]
     backend: String,
@@ -727,7 +728,13 @@ fn nav_replay(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
 }
 
 fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
-    let sizes = steernav::bench::parse_sizes(&cmd.sizes).map_err(anyhow::Error::msg)?;
+    let default_sizes = if cmd.suite == "slam" {
+        "640x480,1241x376"
+    } else {
+        "320x240,640x480,1280x720,1920x1080"
+    };
+    let sizes = steernav::bench::parse_sizes(cmd.sizes.as_deref().unwrap_or(default_sizes))
+        .map_err(anyhow::Error::msg)?;
     let mut backends = Vec::new();
     for b in cmd.backend.split(',') {
         backends.push(match b.trim() {
@@ -758,6 +765,26 @@ fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  ETA {eta}")
             .expect("valid template"),
     );
+    if cmd.suite == "slam" {
+        if cmd.frames < 10 {
+            bail!(
+                "--frames: {} is too few for a median (at least 10)",
+                cmd.frames
+            );
+        }
+        bar.set_length((sizes.len() * backends.len() * cmd.frames) as u64);
+        let rows = steernav::slam::bench::run(&sizes, &backends, cmd.frames, || bar.inc(1))?;
+        bar.finish_and_clear();
+        if cmd.json {
+            println!("{}", serde_json::to_string_pretty(&rows)?);
+        } else {
+            print!("{}", steernav::slam::bench::table(&rows));
+            if let Some(adapter) = &adapter {
+                println!("gpu: {adapter}");
+            }
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
     if cmd.suite == "nav" {
         bar.set_length((6 * backends.len() * cmd.runs.max(1)) as u64);
         let rows = steernav::nav::bench::run(&backends, cmd.warmup, cmd.runs, &bar)?;

@@ -8,6 +8,7 @@
 //! - [`ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
 
 pub mod association;
+pub mod bench;
 pub mod camera;
 pub mod config;
 pub mod ekf;
