@@ -582,3 +582,101 @@ fn bench_nav_suite_times_gist_and_the_field() {
     }
     assert!(rows.iter().any(|r| r["size"] == "B=4096"));
 }
+
+#[test]
+fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let synth = dir.path().join("synth");
+    let config = dir.path().join("drive.toml");
+    std::fs::write(&config, "k1 = 0.0\n").unwrap();
+    let out = steernav()
+        .args(["slam-synth", synth.to_str().unwrap(), "--motion", "drive"])
+        .args(["--frames", "20", "--config", config.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // The KITTI layout: image_0/, calib.txt (labelled P0 row), poses.txt; no times.txt.
+    let kitti = dir.path().join("kitti");
+    std::fs::create_dir_all(kitti.join("image_0")).unwrap();
+    for k in 0..20 {
+        let name = format!("{k:06}.png");
+        std::fs::copy(
+            synth.join("rgb").join(&name),
+            kitti.join("image_0").join(&name),
+        )
+        .unwrap();
+    }
+    let camera = steernav::slam::camera::PinholeCamera::load(&synth.join("calib.toml")).unwrap();
+    std::fs::write(
+        kitti.join("calib.txt"),
+        format!(
+            "P0: {} 0 {} 0 0 {} {} 0 0 0 1 0\nP1: {} 0 {} -386 0 {} {} 0 0 0 1 0\n",
+            camera.fx, camera.cx, camera.fy, camera.cy, camera.fx, camera.cx, camera.fy, camera.cy
+        ),
+    )
+    .unwrap();
+    let truth = steernav::slam::trajectory::read_tum(&synth.join("groundtruth.txt")).unwrap();
+    let rows: Vec<String> = truth.iter().map(steernav::slam::kitti::pose_row).collect();
+    std::fs::write(kitti.join("poses.txt"), rows.join("\n") + "\n").unwrap();
+    let traj = dir.path().join("traj.txt");
+    let run = |extra: &[&str]| {
+        steernav()
+            .args(["slam", kitti.to_str().unwrap(), "--backend", "cpu", "--out"])
+            .arg(&traj)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = run(&["--format", "kitti"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("kitti layout") && stdout.contains("ATE"),
+        "{stdout}"
+    );
+    let written = std::fs::read_to_string(&traj).unwrap();
+    assert_eq!(written.lines().count(), 20);
+    assert!(written.lines().all(|l| l.split_whitespace().count() == 12));
+    // 10 frames/s without times.txt: slam-eval pairs the KITTI rows with the ground truth.
+    let out = steernav()
+        .arg("slam-eval")
+        .arg(&traj)
+        .arg(kitti.join("poses.txt"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("20 poses matched"));
+    // A short poses.txt is refused before the run, naming the file.
+    std::fs::write(kitti.join("poses.txt"), rows[..5].join("\n") + "\n").unwrap();
+    let out = run(&[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("poses.txt") && stderr.contains("5 pose rows for 20 frames"),
+        "{stderr}"
+    );
+    // A bad times.txt names its line; a missing calib.txt names the file.
+    std::fs::write(kitti.join("times.txt"), "0.0\n0.1\nten\n").unwrap();
+    let stderr = String::from_utf8_lossy(&run(&[]).stderr).to_string();
+    assert!(
+        stderr.contains("times.txt") && stderr.contains("line 3"),
+        "{stderr}"
+    );
+    std::fs::remove_file(kitti.join("times.txt")).unwrap();
+    std::fs::remove_file(kitti.join("calib.txt")).unwrap();
+    let out = run(&[]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("calib.txt"));
+}

@@ -55,7 +55,11 @@ pub fn run(
             width,
             height,
             frames,
-            room: [drive.room[0], drive.room[1], drive.room[2].max(0.5 * length + 30.0)],
+            room: [
+                drive.room[0],
+                drive.room[1],
+                drive.room[2].max(0.5 * length + 30.0),
+            ],
             // A KITTI-like lens for wide frames, a usual webcam's otherwise.
             fov_deg: if width as f64 > 2.5 * height as f64 {
                 82.0

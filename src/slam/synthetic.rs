@@ -192,9 +192,11 @@ impl SyntheticSequence {
             SyntheticMotion::Room => room_loop(&config),
             SyntheticMotion::Drive => drive(&config),
         };
-        if let Some((k, pose)) = poses.iter().enumerate().find(|(_, p)| {
-            (0..3).any(|axis| p.position[axis].abs() > config.room[axis] - 0.1)
-        }) {
+        if let Some((k, pose)) = poses
+            .iter()
+            .enumerate()
+            .find(|(_, p)| (0..3).any(|axis| p.position[axis].abs() > config.room[axis] - 0.1))
+        {
             return Err(Error::config(
                 "synthetic.room",
                 format!("{:?}", config.room),
