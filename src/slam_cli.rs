@@ -166,6 +166,19 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     } else {
         PinholeCamera::load(&calib_path)?
     };
+    // The frames must be the calibration's size; say so before the run, not frame by frame.
+    let first = &seq.frames[0].path;
+    let (width, height) = image::image_dimensions(first)
+        .with_context(|| format!("{}: cannot read the image size", first.display()))?;
+    if (width, height) != (camera.width, camera.height) {
+        bail!(
+            "{}: frames are {width}x{height} but the calibration {} is for {}x{}",
+            cmd.sequence.display(),
+            calib_path.display(),
+            camera.width,
+            camera.height
+        );
+    }
     let frame_times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
     let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
     let truth = match &truth_path {
@@ -292,6 +305,8 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 t.total_ms
             )
             .with_context(|| out_err(path))?;
+            // Flushed every frame: a killed run leaves whole rows up to its last frame.
+            f.flush().with_context(|| out_err(path))?;
         }
         if r.lost {
             bar.set_message("tracking lost");
@@ -312,7 +327,15 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     if let Some(path) = &cmd.map {
         write_map(path, &map)?;
     }
-    let n = reports.len().max(1) as f64;
+    if reports.is_empty() {
+        bail!(
+            "{}: no frame was processed ({} skipped, {} missing)",
+            cmd.sequence.display(),
+            skipped,
+            seq.missing.len()
+        );
+    }
+    let n = reports.len() as f64;
     let mean = |f: fn(&FrameReport) -> f64| reports.iter().map(f).sum::<f64>() / n;
     let lost = reports.iter().filter(|r| r.lost).count();
     let relocalised = reports.iter().filter(|r| r.relocalised).count();

@@ -680,3 +680,41 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("calib.txt"));
 }
+
+#[test]
+fn slam_refuses_a_calibration_of_another_size_before_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = dir.path().join("room");
+    let out = steernav()
+        .args(["slam-synth", seq.to_str().unwrap(), "--frames", "3"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let calib = dir.path().join("wide.toml");
+    std::fs::write(
+        &calib,
+        "[camera]\nfx = 700\nfy = 700\ncx = 600\ncy = 180\nwidth = 1226\nheight = 370\n",
+    )
+    .unwrap();
+    let traj = dir.path().join("traj.txt");
+    let out = steernav()
+        .args(["slam", seq.to_str().unwrap(), "--backend", "cpu", "--calib"])
+        .arg(&calib)
+        .arg("--out")
+        .arg(&traj)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "a run that processes nothing must fail"
+    );
+    assert!(
+        stderr.contains("320x240") && stderr.contains("1226x370") && stderr.contains("wide.toml"),
+        "{stderr}"
+    );
+}

@@ -208,6 +208,32 @@ pub fn evaluate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Result<Trajec
     }
     let src: Vec<_> = pairs.iter().map(|(e, _)| e.position).collect();
     let dst: Vec<_> = pairs.iter().map(|(_, g)| g.position).collect();
+    for (what, points) in [("estimate", &src), ("ground truth", &dst)] {
+        if let Some(p) = points
+            .iter()
+            .find(|p| !p.iter().all(|v| v.is_finite() && v.abs() < 1e12))
+        {
+            return Err(Error::config(
+                "trajectories",
+                format!("{:?}", p.as_slice()),
+                format!("the {what} holds a position that is not finite or beyond 1e12 m"),
+            ));
+        }
+        let spread = points
+            .iter()
+            .map(|p| (p - points[0]).norm())
+            .fold(0.0, f64::max);
+        if spread <= 1e-9 {
+            return Err(Error::config(
+                "trajectories",
+                format!("{spread} m"),
+                format!(
+                    "the {what} does not move over the {} matched poses: a similarity alignment has no scale to fit",
+                    pairs.len()
+                ),
+            ));
+        }
+    }
     let (s, r, t) = umeyama(&src, &dst, true);
     let ate = (src
         .iter()
@@ -287,6 +313,26 @@ mod tests {
         assert!(err.rpe_trans < 1e-9, "{err:?}");
         assert!((err.scale - 4.0).abs() < 1e-9);
         assert_eq!(err.matched, 50);
+    }
+
+    #[test]
+    fn static_or_non_finite_trajectories_are_refused_with_the_reason() {
+        let moving = poses(1.0, &Matrix3::identity(), Vector3::zeros());
+        let still: Vec<Pose> = moving
+            .iter()
+            .map(|p| Pose {
+                position: Vector3::new(1.0, 2.0, 3.0),
+                ..*p
+            })
+            .collect();
+        let message = evaluate(&moving, &still, 0.02).unwrap_err().to_string();
+        assert!(message.contains("ground truth does not move"), "{message}");
+        let message = evaluate(&still, &moving, 0.02).unwrap_err().to_string();
+        assert!(message.contains("estimate does not move"), "{message}");
+        let mut huge = moving.clone();
+        huge[3].position.x = 1e300;
+        let message = evaluate(&moving, &huge, 0.02).unwrap_err().to_string();
+        assert!(message.contains("not finite or beyond"), "{message}");
     }
 
     #[test]
