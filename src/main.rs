@@ -1,5 +1,22 @@
 //! The `steernav` command line: detect, batch, info.
 
+/// `println!` for the commands: a closed or full stdout becomes an error the command returns
+/// (see [`StdoutFailed`]) instead of a panic. Shadows the std macro in this crate.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($arg)*).map_err(crate::StdoutFailed)?;
+    }};
+}
+
+/// `print!` with the same handling as [`println!`].
+macro_rules! print {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($arg)*).map_err(crate::StdoutFailed)?;
+    }};
+}
+
 mod nav_cli;
 mod slam_cli;
 
@@ -340,14 +357,27 @@ fn main() -> ExitCode {
         Command::NavSweep(cmd) => nav_cli::nav_sweep(cmd),
         Command::Info => info(),
     };
-    match result {
+    // Whatever was printed must reach stdout before the exit code says it did.
+    let flushed = std::io::Write::flush(&mut std::io::stdout()).map_err(StdoutFailed);
+    match result.and_then(|code| flushed.map(|()| code).map_err(Into::into)) {
         Ok(code) => code,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+        Err(e) => match e.downcast_ref::<StdoutFailed>() {
+            // A reader that went away (`| head`) ends the program quietly, as Unix tools do.
+            Some(StdoutFailed(io)) if io.kind() == std::io::ErrorKind::BrokenPipe => {
+                ExitCode::from(141)
+            }
+            _ => {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
 }
+
+/// Writing to stdout failed: closed by the reader or out of space.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write to stdout: {0}")]
+struct StdoutFailed(std::io::Error);
 
 fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
     let scales: Vec<String> = detector
@@ -421,6 +451,10 @@ fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
             Ok(())
         };
         if let Err(e) = run() {
+            // Stdout failing is not this image's fault and ends the command.
+            if e.is::<StdoutFailed>() {
+                return Err(e);
+            }
             eprintln!("error: {e:#}");
             failed += 1;
         }
@@ -676,24 +710,25 @@ fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    let print = |path: &Path, d: &[f32]| {
+    let print = |path: &Path, d: &[f32]| -> anyhow::Result<()> {
         println!(
             "{}",
             serde_json::json!({"image": path.display().to_string(), "gist": d})
-        )
+        );
+        Ok(())
     };
     match ctx {
         Some(ctx) => {
             let mut gpu = steernav::gpu::gist::GpuGist::new(ctx, cfg)?;
             let frames: Vec<Frame> = loaded.iter().map(|(_, f)| f.clone()).collect();
             for ((path, _), d) in loaded.iter().zip(gpu.describe_batch(&frames)?) {
-                print(path, &d);
+                print(path, &d)?;
             }
         }
         None => {
             for (path, frame) in &loaded {
                 match engine.describe(frame) {
-                    Ok(d) => print(path, &d),
+                    Ok(d) => print(path, &d)?,
                     Err(e) => {
                         eprintln!("error: {}: {e}", path.display());
                         failed += 1;

@@ -275,13 +275,13 @@ pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
         cmd.obstacles,
         100.0 * cmd.invisible
     );
-    print_table(&hidden);
+    print_table(&hidden)?;
     println!("\nThe same worlds with every obstacle visible to the LIDAR:");
-    print_table(&visible);
+    print_table(&visible)?;
     Ok(ExitCode::SUCCESS)
 }
 
-fn print_table(c: &Comparison) {
+fn print_table(c: &Comparison) -> anyhow::Result<()> {
     println!(
         "{:<8} {:>8} {:>10} {:>11} {:>13} {:>14} {:>19}",
         "mode",
@@ -292,7 +292,7 @@ fn print_table(c: &Comparison) {
         "time to goal",
         "position error std"
     );
-    let row = |name: &str, s: &ModeSummary| {
+    let row = |name: &str, s: &ModeSummary| -> anyhow::Result<()> {
         println!(
             "{:<8} {:>8} {:>9.1}% {:>11} {:>11.2} m {:>12.1} s {:>17.3} m",
             name,
@@ -302,10 +302,11 @@ fn print_table(c: &Comparison) {
             s.path_length,
             s.time_to_goal,
             s.position_error_std
-        )
+        );
+        Ok(())
     };
-    row("laser", &c.laser);
-    row("fusion", &c.fusion);
+    row("laser", &c.laser)?;
+    row("fusion", &c.fusion)
 }
 
 pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {

@@ -718,3 +718,31 @@ fn slam_refuses_a_calibration_of_another_size_before_the_run() {
         "{stderr}"
     );
 }
+
+/// A full stdout is an error with a message and a non-zero exit, never a panic.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_stdout_is_an_error_not_a_panic() {
+    for args in [
+        vec!["detect", "--backend", "cpu", "--max-keypoints", "20"],
+        vec!["info"],
+    ] {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let mut command = steernav();
+        command.args(&args);
+        if args[0] == "detect" {
+            command.arg(sample());
+        }
+        let out = command.stdout(full).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("cannot write to stdout"),
+            "{args:?}: {stderr}"
+        );
+    }
+}
