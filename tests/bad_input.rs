@@ -124,3 +124,66 @@ fn non_finite_and_out_of_range_config_values_are_refused() {
         })
     ));
 }
+
+#[test]
+fn float_settings_that_would_explode_the_work_are_refused_naming_the_key() {
+    for (key, value) in [
+        ("basis_sigma", 1e30f32),
+        ("basis_sigma", 1e6),
+        ("sigma0", 1e6),
+        ("truncate", 1e4),
+        ("merge_radius", 1e9),
+        ("gamma", 1e5),
+    ] {
+        let mut config = DetectorConfig::default();
+        match key {
+            "basis_sigma" => config.basis_sigma = value,
+            "sigma0" => config.sigma0 = value,
+            "truncate" => config.truncate = value,
+            "merge_radius" => config.merge_radius = value,
+            _ => config.gamma = value,
+        }
+        let message = Detector::new(&config, Backend::Cpu)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(message.contains(key), "{key} = {value}: {message:?}");
+    }
+    let config = DetectorConfig {
+        scale_step: 1e3,
+        ..DetectorConfig::default()
+    };
+    assert!(Detector::new(&config, Backend::Cpu).is_err());
+}
+
+#[test]
+fn flaser_lines_with_a_wrong_or_absurd_beam_count_name_the_line() {
+    let ranges = vec!["1.5"; 4].join(" ");
+    let good = format!("FLASER 4 {ranges} 0 0 0 0 0 0 12.5 host 12.5");
+    let path = Path::new("log.clf");
+    let scans = steernav::nav::carmen::parse(path, good.as_bytes()).unwrap();
+    assert_eq!(scans.len(), 1);
+    for bad in [
+        format!("FLASER 3 {ranges} 0 0 0 0 0 0 12.5 host 12.5"),
+        format!("FLASER 18446744073709551615 {ranges} 0 0 0 0 0 0 12.5 host 12.5"),
+    ] {
+        let text = format!("{good}\n{bad}\n");
+        let message = steernav::nav::carmen::parse(path, text.as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("log.clf") && message.contains("line 2"),
+            "{message}"
+        );
+    }
+}
+
+#[test]
+fn rotation_angles_beyond_ten_turns_are_refused() {
+    let message = steernav::eval::sweep::parse_angles("1e308").unwrap_err();
+    assert!(
+        message.contains("1e308") && message.contains("3600"),
+        "{message}"
+    );
+    assert!(steernav::eval::sweep::parse_angles("0:360:15").is_ok());
+}

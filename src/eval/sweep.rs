@@ -132,6 +132,10 @@ pub fn parse_angles(spec: &str) -> std::result::Result<Vec<f64>, String> {
     if values.is_empty() || values.iter().any(|v| !v.is_finite()) {
         return Err(bad("no finite angle"));
     }
+    // Beyond ten turns an angle only loses precision (1e308° has no meaningful sine).
+    if let Some(v) = values.iter().find(|v| v.abs() > 3600.0) {
+        return Err(bad(&format!("{v}° is outside ±3600°")));
+    }
     Ok(values)
 }
 

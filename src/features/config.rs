@@ -141,16 +141,17 @@ impl DetectorConfig {
                 reason: reason.to_string(),
             })
         }
-        let positive = [
-            ("basis_sigma", self.basis_sigma),
-            ("sigma0", self.sigma0),
-            ("gamma", self.gamma),
-            ("truncate", self.truncate),
-            ("merge_radius", self.merge_radius),
+        // Each bound caps the work the value causes: kernel radii, window sizes, merge area.
+        let bounded = [
+            ("basis_sigma", self.basis_sigma, 32.0),
+            ("sigma0", self.sigma0, 32.0),
+            ("gamma", self.gamma, 8.0),
+            ("truncate", self.truncate, 8.0),
+            ("merge_radius", self.merge_radius, 64.0),
         ];
-        for (field, v) in positive {
-            if !v.is_finite() || v <= 0.0 {
-                return bad(field, v, "must be a finite number > 0");
+        for (field, v, max) in bounded {
+            if !v.is_finite() || v <= 0.0 || v > max {
+                return bad(field, v, &format!("must be a finite number in (0, {max}]"));
             }
         }
         if !self.scale_normalization.is_finite() || !(0.0..=4.0).contains(&self.scale_normalization)
@@ -168,8 +169,12 @@ impl DetectorConfig {
                 "must be finite, in [0, 4]",
             );
         }
-        if !self.scale_step.is_finite() || self.scale_step <= 1.0 {
-            return bad("scale_step", self.scale_step, "must be a finite number > 1");
+        if !self.scale_step.is_finite() || self.scale_step <= 1.0 || self.scale_step > 4.0 {
+            return bad(
+                "scale_step",
+                self.scale_step,
+                "must be a finite number in (1, 4]",
+            );
         }
         if !self.harris_k.is_finite() || !(0.0..0.25).contains(&self.harris_k) {
             return bad("harris_k", self.harris_k, "must be finite, in [0, 0.25)");
@@ -191,7 +196,8 @@ impl DetectorConfig {
                 &format!("must be in 1..={MAX_SCALES}"),
             );
         }
-        let largest = self.sigma0 * self.scale_step.powi(self.scales as i32 - 1) * self.gamma;
+        let largest = (self.sigma0 * self.scale_step.powi(self.scales as i32 - 1) * self.gamma)
+            .max(self.basis_sigma);
         if !largest.is_finite() || largest * self.truncate > 256.0 {
             return bad(
                 "scales",

@@ -64,10 +64,13 @@ pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
             .first()
             .and_then(|v| v.parse().ok())
             .ok_or_else(|| bad("missing beam count".into()))?;
-        if n < 2 || fields.len() < 1 + n + 7 {
+        // `n r1 … rn x y θ odom_x odom_y odom_θ ipc_time host logger_time`: exactly n + 10
+        // fields, so a count one off is caught instead of shifting every field after it.
+        if n < 2 || n.checked_add(10) != Some(fields.len()) {
             return Err(bad(format!(
-                "expected {} beams and a pose, found {} fields",
+                "a FLASER line with {} beams has {} fields after the keyword, found {}",
                 n,
+                n.saturating_add(10),
                 fields.len()
             )));
         }
