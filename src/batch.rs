@@ -91,6 +91,8 @@ pub struct BatchOptions {
     pub draw: bool,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Largest image accepted, pixels (see [`crate::image::DEFAULT_MAX_PIXELS`]).
+    pub max_pixels: u64,
 }
 
 fn output_path(opts: &BatchOptions, image: &Path) -> PathBuf {
@@ -146,7 +148,10 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
             scope.spawn(move || loop {
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&i) = todo.get(k) else { break };
-                if tx.send((i, Frame::load(&images[i]))).is_err() {
+                if tx
+                    .send((i, Frame::load_limited(&images[i], opts.max_pixels)))
+                    .is_err()
+                {
                     break;
                 }
             });

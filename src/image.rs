@@ -87,13 +87,78 @@ impl Frame {
         Self::from_rgb(rgb.width(), rgb.height(), rgb.into_raw())
     }
 
-    /// Loads and decodes an image file; errors name the file.
+    /// Loads and decodes an image file of at most [`DEFAULT_MAX_PIXELS`]; errors name the file.
     pub fn load(path: &Path) -> Result<Self> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        Self::load_limited(path, DEFAULT_MAX_PIXELS)
+    }
+
+    /// Loads and decodes an image file of at most `max_pixels` pixels. The format comes from
+    /// the first bytes (or the extension) and the size from the header, both before anything
+    /// else is read, so a huge or foreign file costs a few bytes, not its length; errors name
+    /// the file, the size and the limit.
+    pub fn load_limited(path: &Path, max_pixels: u64) -> Result<Self> {
+        use std::io::{BufReader, Read, Seek};
+        let io = |source| Error::Io {
             path: path.to_path_buf(),
             source,
-        })?;
-        Self::decode(path, &bytes)
+        };
+        let decode_err = |reason: String| Error::Decode {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let mut file = std::fs::File::open(path).map_err(io)?;
+        let mut head = Vec::with_capacity(64);
+        (&mut file).take(64).read_to_end(&mut head).map_err(io)?;
+        if head.is_empty() {
+            return Err(decode_err("file is empty".into()));
+        }
+        let format = image::guess_format(&head)
+            .or_else(|_| image::ImageFormat::from_path(path))
+            .map_err(|e| decode_err(e.to_string()))?;
+        file.rewind().map_err(io)?;
+        let mut reader = image::ImageReader::with_format(BufReader::new(file), format);
+        let (width, height) = reader
+            .into_dimensions()
+            .map_err(|e| decode_err(e.to_string()))?;
+        let name = path.display().to_string();
+        check_size(&name, width, height)?;
+        if width as u64 * height as u64 > max_pixels {
+            return Err(Error::ImageSize {
+                input: name,
+                width,
+                height,
+                reason: format!(
+                    "{} pixels exceed the limit of {max_pixels} (--max-pixels)",
+                    width as u64 * height as u64
+                ),
+            });
+        }
+        reader = image::ImageReader::with_format(
+            BufReader::new(std::fs::File::open(path).map_err(io)?),
+            format,
+        );
+        reader.limits(decode_limits(width, height));
+        let img = reader.decode().map_err(|e| decode_err(e.to_string()))?;
+        Self::named(&name, &img)
+    }
+
+    /// The frame of a decoded image, errors naming `name`.
+    fn named(name: &str, img: &image::DynamicImage) -> Result<Self> {
+        check_size(name, img.width(), img.height())?;
+        Self::from_dynamic(img).map_err(|e| match e {
+            Error::ImageSize {
+                width,
+                height,
+                reason,
+                ..
+            } => Error::ImageSize {
+                input: name.to_string(),
+                width,
+                height,
+                reason,
+            },
+            other => other,
+        })
     }
 
     /// Decodes an image held in memory; `path` is only used to name it in errors and to guess
@@ -117,28 +182,27 @@ impl Frame {
             l
         });
         let img = reader.decode().map_err(|e| decode_err(e.to_string()))?;
-        let name = path.display().to_string();
-        check_size(&name, img.width(), img.height())?;
-        Self::from_dynamic(&img).map_err(|e| match e {
-            Error::ImageSize {
-                width,
-                height,
-                reason,
-                ..
-            } => Error::ImageSize {
-                input: name,
-                width,
-                height,
-                reason,
-            },
-            other => other,
-        })
+        Self::named(&path.display().to_string(), &img)
     }
 
     /// Number of pixels.
     pub fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
+}
+
+/// Pixel budget of [`Frame::load`]: about 100 megapixels.
+pub const DEFAULT_MAX_PIXELS: u64 = 100_000_000;
+
+/// Decoder limits for an image whose header says `width`×`height`: sides as declared, and
+/// allocations bounded by what such an image needs (16-bit RGBA at most), so a header that
+/// lies cannot make the decoder allocate more.
+fn decode_limits(width: u32, height: u32) -> image::Limits {
+    let mut l = image::Limits::default();
+    l.max_image_width = Some(width);
+    l.max_image_height = Some(height);
+    l.max_alloc = Some((width as u64 * height as u64 * 8).max(1 << 20));
+    l
 }
 
 /// Refuses empty images and images beyond [`MAX_SIDE`].

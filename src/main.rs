@@ -207,9 +207,14 @@ struct HomographyCmd {
 /// The backend and the detector settings of every command that detects.
 #[derive(Args, Clone)]
 struct DetectorArgs {
-    /// Where the image work runs: auto (GPU if an adapter exists, else CPU with a warning), gpu, cpu.
+    /// Where the image work runs: auto (a hardware GPU if there is one, else the CPU with a
+    /// warning), gpu (any adapter, software ones included), cpu.
     #[arg(long, value_enum, default_value_t = Backend::Auto)]
     backend: Backend,
+    /// Largest image accepted, in pixels; larger ones are refused from their header before
+    /// decoding.
+    #[arg(long, value_name = "N", default_value_t = steernav::image::DEFAULT_MAX_PIXELS)]
+    max_pixels: u64,
     #[command(flatten)]
     settings: SettingsArgs,
 }
@@ -421,7 +426,7 @@ fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
     let mut failed = 0;
     for path in &cmd.images {
         let run = || -> anyhow::Result<()> {
-            let frame = Frame::load(path)?;
+            let frame = Frame::load_limited(path, cmd.detector.max_pixels)?;
             let d = detector
                 .detect(&frame)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -474,6 +479,7 @@ fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
         force: cmd.force,
         draw: cmd.draw,
         progress: true,
+        max_pixels: cmd.detector.max_pixels,
     };
     let entries = batch::run(&detector, &opts)?;
     let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();

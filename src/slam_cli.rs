@@ -228,7 +228,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let mut previous_odometry: Option<Pose> = None;
     for item in frames {
         bar.inc(1);
-        let frame = match Frame::load(&item.path) {
+        let frame = match Frame::load_limited(&item.path, cmd.detector.max_pixels) {
             Ok(f) => f,
             Err(e) => {
                 bar.suspend(|| eprintln!("warning: {e}; frame skipped"));

@@ -187,3 +187,68 @@ fn rotation_angles_beyond_ten_turns_are_refused() {
     );
     assert!(steernav::eval::sweep::parse_angles("0:360:15").is_ok());
 }
+
+/// A small PNG whose header claims 12000×9000 pixels.
+fn png_claiming(width: u32, height: u32) -> Vec<u8> {
+    fn chunk(kind: &[u8], data: &[u8]) -> Vec<u8> {
+        let mut out = (data.len() as u32).to_be_bytes().to_vec();
+        out.extend_from_slice(kind);
+        out.extend_from_slice(data);
+        let mut crc_input = kind.to_vec();
+        crc_input.extend_from_slice(data);
+        out.extend_from_slice(&crc32(&crc_input).to_be_bytes());
+        out
+    }
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut crc = 0xffff_ffffu32;
+        for &b in bytes {
+            crc ^= b as u32;
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 {
+                    (crc >> 1) ^ 0xedb8_8320
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        !crc
+    }
+    let mut ihdr = width.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(
+        b"IDAT",
+        &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    ));
+    png.extend(chunk(b"IEND", &[]));
+    png
+}
+
+#[test]
+fn images_beyond_the_pixel_budget_are_refused_from_their_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.png");
+    std::fs::write(&big, png_claiming(12000, 9000)).unwrap();
+    let message = Frame::load(&big).unwrap_err().to_string();
+    assert!(
+        message.contains("big.png")
+            && message.contains("12000x9000")
+            && message.contains("108000000 pixels")
+            && message.contains("100000000"),
+        "{message}"
+    );
+    let sample = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/sample.png");
+    let message = Frame::load_limited(&sample, 1000).unwrap_err().to_string();
+    assert!(
+        message.contains("307200 pixels exceed the limit of 1000"),
+        "{message}"
+    );
+    // A file that is no image is refused from its first bytes, whatever its length.
+    let fake = dir.path().join("fake.png");
+    let file = std::fs::File::create(&fake).unwrap();
+    file.set_len(1 << 30).unwrap();
+    let message = Frame::load(&fake).unwrap_err().to_string();
+    assert!(message.contains("fake.png"), "{message}");
+}
