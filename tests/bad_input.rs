@@ -252,3 +252,27 @@ fn images_beyond_the_pixel_budget_are_refused_from_their_header() {
     let message = Frame::load(&fake).unwrap_err().to_string();
     assert!(message.contains("fake.png"), "{message}");
 }
+
+#[test]
+fn config_errors_name_the_real_key() {
+    let cases = [
+        ("[detector]\norientatons = 8\n", "orientatons"),
+        ("[detector]\norientations = \"eight\"\n", "orientations"),
+        ("[detector]\nbasis = \"third\"\n", "third"),
+        ("[detecter]\norientations = 8\n", "detecter"),
+        ("scales = 3\n[detector]\norientations = 8\n", "scales"),
+        ("orientatons = 8\n", "orientatons"),
+    ];
+    for (text, culprit) in cases {
+        let message = DetectorConfig::from_toml_str(text).unwrap_err();
+        assert!(message.contains(culprit), "{text:?}: {message}");
+        assert!(
+            !message.contains("unknown field `detector`"),
+            "{text:?}: {message}"
+        );
+    }
+    let ok = DetectorConfig::from_toml_str("[detector]\norientations = 8\n").unwrap();
+    assert_eq!(ok.orientations, 8);
+    let bare = DetectorConfig::from_toml_str("scales = 3\n").unwrap();
+    assert_eq!(bare.scales, 3);
+}

@@ -219,14 +219,31 @@ impl DetectorConfig {
     }
 
     /// Parses a TOML document (the `[detector]` table or a bare table) and validates it.
+    ///
+    /// Errors name the real culprit: a misspelled key or a wrong type inside `[detector]`, a
+    /// stray table beside it, or a top-level key next to it.
     pub fn from_toml_str(text: &str) -> Result<Self, String> {
-        #[derive(Deserialize)]
-        struct Wrapped {
-            detector: DetectorConfig,
-        }
-        let cfg = match toml::from_str::<Wrapped>(text) {
-            Ok(w) => w.detector,
-            Err(_) => toml::from_str::<DetectorConfig>(text).map_err(|e| e.to_string())?,
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+        let cfg = match table.remove("detector") {
+            Some(toml::Value::Table(detector)) => {
+                if let Some(other) = table.keys().next() {
+                    return Err(format!(
+                        "unknown key `{other}` beside [detector] (every setting goes inside it)"
+                    ));
+                }
+                detector
+                    .try_into::<DetectorConfig>()
+                    .map_err(|e| format!("[detector]: {}", e.to_string().trim_end()))?
+            }
+            Some(other) => {
+                return Err(format!(
+                    "`detector` must be a table, found a {}",
+                    other.type_str()
+                ))
+            }
+            None => table
+                .try_into::<DetectorConfig>()
+                .map_err(|e| e.to_string().trim_end().to_string())?,
         };
         cfg.validate().map_err(|e| e.to_string())?;
         Ok(cfg)
