@@ -21,6 +21,15 @@ pub enum Error {
         /// What the decoder said.
         reason: String,
     },
+    /// A text or data file (trajectory, frame list, calibration, laser log, homography,
+    /// a helper's output) is malformed; the reason names the line where there is one.
+    #[error("{path}: {reason}")]
+    Parse {
+        /// The file concerned.
+        path: PathBuf,
+        /// What is wrong, and where.
+        reason: String,
+    },
     /// An image has a size the detector cannot process.
     #[error("{input}: image is {width}x{height}: {reason}")]
     ImageSize {

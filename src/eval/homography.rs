@@ -51,7 +51,7 @@ pub fn from_affine(m: &[f64; 6]) -> Homography {
 
 /// Parses a homography file: nine numbers separated by white space.
 pub fn parse(path: &Path, text: &str) -> Result<Homography> {
-    let bad = |reason: String| Error::Decode {
+    let bad = |reason: String| Error::Parse {
         path: path.to_path_buf(),
         reason,
     };

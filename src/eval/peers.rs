@@ -83,7 +83,7 @@ impl PeerRunner {
                 source,
             })?;
         if !out.status.success() {
-            return Err(Error::Decode {
+            return Err(Error::Parse {
                 path: self.script.clone(),
                 reason: format!(
                     "peer detectors failed: {}",
@@ -91,7 +91,7 @@ impl PeerRunner {
                 ),
             });
         }
-        String::from_utf8(out.stdout).map_err(|e| Error::Decode {
+        String::from_utf8(out.stdout).map_err(|e| Error::Parse {
             path: self.script.clone(),
             reason: e.to_string(),
         })
@@ -100,7 +100,7 @@ impl PeerRunner {
     /// Which peers the installed OpenCV has.
     pub fn availability(&self) -> Result<Availability> {
         let text = self.run(&["list".as_ref()])?;
-        serde_json::from_str(text.trim()).map_err(|e| Error::Decode {
+        serde_json::from_str(text.trim()).map_err(|e| Error::Parse {
             path: self.script.clone(),
             reason: e.to_string(),
         })
@@ -121,7 +121,7 @@ impl PeerRunner {
         let text = self.run(&args)?;
         let mut out = HashMap::new();
         for line in text.lines().filter(|l| !l.trim().is_empty()) {
-            let p: PeerOutput = serde_json::from_str(line).map_err(|e| Error::Decode {
+            let p: PeerOutput = serde_json::from_str(line).map_err(|e| Error::Parse {
                 path: self.script.clone(),
                 reason: e.to_string(),
             })?;

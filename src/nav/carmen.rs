@@ -55,7 +55,7 @@ pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
         if it.next() != Some("FLASER") {
             continue;
         }
-        let bad = |why: String| Error::Decode {
+        let bad = |why: String| Error::Parse {
             path: path.to_path_buf(),
             reason: format!("line {}: {why}", no + 1),
         };

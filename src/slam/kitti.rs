@@ -20,7 +20,7 @@ fn read(path: &Path) -> Result<String> {
 }
 
 fn bad(path: &Path, line: usize, reason: impl std::fmt::Display) -> Error {
-    Error::Decode {
+    Error::Parse {
         path: path.to_path_buf(),
         reason: format!("line {line}: {reason}"),
     }
@@ -59,7 +59,7 @@ pub fn read_calibration(path: &Path, width: u32, height: u32) -> Result<PinholeC
             break;
         }
     }
-    let (line_no, line) = first.ok_or_else(|| Error::Decode {
+    let (line_no, line) = first.ok_or_else(|| Error::Parse {
         path: path.to_path_buf(),
         reason: "no projection row (expected `P0: fx 0 cx 0 0 fy cy 0 0 0 1 0`)".into(),
     })?;
@@ -152,7 +152,7 @@ pub fn read_poses(path: &Path, timestamps: &[f64]) -> Result<Vec<Pose>> {
         });
     }
     if poses.len() < timestamps.len() {
-        return Err(Error::Decode {
+        return Err(Error::Parse {
             path: path.to_path_buf(),
             reason: format!(
                 "{} pose rows for {} frames (line {} is the end of the file)",

@@ -90,7 +90,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
         let timestamps: Vec<f64> = if times_path.is_file() {
             let times = super::kitti::read_times(&times_path)?;
             if times.len() < files.len() {
-                return Err(Error::Decode {
+                return Err(Error::Parse {
                     path: times_path,
                     reason: format!("{} timestamps for {} frames", times.len(), files.len()),
                 });
@@ -144,7 +144,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
     sequence.frames = present;
     sequence.missing = missing.into_iter().map(|f| f.path).collect();
     if sequence.frames.is_empty() {
-        return Err(Error::Decode {
+        return Err(Error::Parse {
             path: dir.to_path_buf(),
             reason: format!(
                 "no frames found ({} layout{})",
@@ -207,7 +207,7 @@ fn parse_list(
             .split(|c: char| c == ',' || c.is_whitespace())
             .filter(|s| !s.is_empty())
             .collect();
-        let bad = |reason: String| Error::Decode {
+        let bad = |reason: String| Error::Parse {
             path: list.to_path_buf(),
             reason: format!("line {}: {reason}", i + 1),
         };
@@ -253,12 +253,12 @@ pub fn read_ground_truth(path: &Path, frame_times: &[f64]) -> Result<Vec<super::
                 .split(',')
                 .map(|s| s.trim().parse::<f64>())
                 .collect::<std::result::Result<_, _>>()
-                .map_err(|e| Error::Decode {
+                .map_err(|e| Error::Parse {
                     path: path.to_path_buf(),
                     reason: format!("line {}: {e}", i + 1),
                 })?;
             if v.len() < 8 {
-                return Err(Error::Decode {
+                return Err(Error::Parse {
                     path: path.to_path_buf(),
                     reason: format!("line {}: expected at least 8 values", i + 1),
                 });

@@ -58,7 +58,7 @@ pub fn read_tum(path: &Path) -> Result<Vec<Pose>> {
             path: path.to_path_buf(),
             source,
         })?;
-        let bad = |reason: String| Error::Decode {
+        let bad = |reason: String| Error::Parse {
             path: path.to_path_buf(),
             reason: format!("line {}: {reason}", i + 1),
         };
