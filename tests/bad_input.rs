@@ -158,7 +158,7 @@ fn float_settings_that_would_explode_the_work_are_refused_naming_the_key() {
 
 #[test]
 fn flaser_lines_with_a_wrong_or_absurd_beam_count_name_the_line() {
-    let ranges = vec!["1.5"; 4].join(" ");
+    let ranges = ["1.5"; 4].join(" ");
     let good = format!("FLASER 4 {ranges} 0 0 0 0 0 0 12.5 host 12.5");
     let path = Path::new("log.clf");
     let scans = steernav::nav::carmen::parse(path, good.as_bytes()).unwrap();
