@@ -94,3 +94,24 @@ fn malformed_lines_are_named() {
     assert!(e.contains("line 2") && e.contains("'x'"), "{e}");
     assert!(read_log(std::path::Path::new("/nonexistent/log")).is_err());
 }
+
+#[test]
+fn a_log_without_motion_and_out_of_range_settings_are_refused() {
+    let scans = parse(
+        std::path::Path::new("corridor.log"),
+        corridor_log().as_bytes(),
+    )
+    .unwrap();
+    // The robot standing still: every scan is the first one.
+    let still: Vec<_> = scans.iter().map(|_| scans[0].clone()).collect();
+    let message = replay(&still, &ReplayConfig::default())
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("nothing to evaluate"), "{message}");
+    let negative = ReplayConfig {
+        free_halfwidth_deg: -10.0,
+        ..ReplayConfig::default()
+    };
+    let message = replay(&scans, &negative).unwrap_err().to_string();
+    assert!(message.contains("free_halfwidth_deg"), "{message}");
+}

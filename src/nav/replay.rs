@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::carmen::Scan;
 use super::dnf::{FieldBatch, FieldConfig};
 use super::stimulus::{angle_diff, combined, obstacle_stimulus, target_stimulus, StimulusConfig};
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// Settings of a replay.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,6 +40,40 @@ pub struct ReplayConfig {
     /// prints them with six digits, so consecutive scans share one), the target is the
     /// direction to the first later pose at least this far (m). Default 0.3.
     pub fallback_distance: f64,
+}
+
+impl ReplayConfig {
+    /// Checks every value, naming the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        self.field.validate()?;
+        self.stimulus.validate()?;
+        let checks: [(&'static str, f64, f64, f64); 6] = [
+            ("lookahead", self.lookahead, 1e-3, 3600.0),
+            ("min_motion", self.min_motion, 0.0, 1e3),
+            ("safety", self.safety as f64, 0.0, 1e3),
+            (
+                "free_halfwidth_deg",
+                self.free_halfwidth_deg as f64,
+                0.0,
+                90.0,
+            ),
+            ("rear_inhibition", self.rear_inhibition as f64, 0.0, 1e3),
+            ("fallback_distance", self.fallback_distance, 1e-3, 1e3),
+        ];
+        for (field, v, lo, hi) in checks {
+            if !(v.is_finite() && v >= lo && v <= hi) {
+                return Err(Error::config(field, v, format!("must be in [{lo}, {hi}]")));
+            }
+        }
+        if !(1..=10_000).contains(&self.steps_per_scan) {
+            return Err(Error::config(
+                "steps_per_scan",
+                self.steps_per_scan,
+                "must be in 1..=10000",
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for ReplayConfig {
@@ -125,8 +159,7 @@ pub fn is_free(scan: &Scan, heading: f32, safety: f32, halfwidth: f32) -> bool {
 
 /// Replays a log.
 pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
-    cfg.field.validate()?;
-    cfg.stimulus.validate()?;
+    cfg.validate()?;
     let n = cfg.field.neurons;
     let mut field = FieldBatch::new(cfg.field.clone(), 1)?;
     let (mut evaluated, mut free, mut deviation) = (0usize, 0usize, 0.0f64);
@@ -166,6 +199,16 @@ pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
         evaluated += 1;
         free += is_free(scan, heading, cfg.safety, halfwidth) as usize;
         deviation += angle_diff(heading, target).abs().to_degrees() as f64;
+    }
+    if evaluated == 0 {
+        return Err(Error::config(
+            "scans",
+            scans.len(),
+            format!(
+                "no scan has a later pose at least min_motion = {} m away: nothing to evaluate",
+                cfg.min_motion
+            ),
+        ));
     }
     Ok(ReplayResult {
         scans: evaluated,

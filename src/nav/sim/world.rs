@@ -120,6 +120,13 @@ impl World {
                 "must be finite and > 0 (start and goal finite too)",
             ));
         }
+        if !(self.scan_height.is_finite() && self.scan_height > 0.0) {
+            return Err(Error::config(
+                "world.scan_height",
+                self.scan_height,
+                "must be finite and > 0 (the LIDAR sees obstacles taller than it)",
+            ));
+        }
         if !(self.robot_radius.is_finite() && self.robot_radius > 0.0) {
             return Err(Error::config(
                 "world.robot_radius",
