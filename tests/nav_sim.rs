@@ -55,6 +55,15 @@ fn worlds_load_from_toml_and_bad_ones_are_named() {
         .unwrap_err()
         .to_string()
         .contains("world.obstacles"));
+    std::fs::write(
+        &path,
+        WORLD.replace("goal = [7.0, 3.0]", "goal = [7.0, 3.0]\nscan_height = nan"),
+    )
+    .unwrap();
+    assert!(World::load(&path)
+        .unwrap_err()
+        .to_string()
+        .contains("world.scan_height"));
 }
 
 #[test]
