@@ -3,9 +3,9 @@
 //! on lavapipe they measure a CPU rasteriser, not a GPU.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use steernav::features::cluster::merge;
 use steernav::features::descriptor::describe;
 use steernav::features::filter_bank::steered_images;
+use steernav::features::merge::merge;
 use steernav::synth::textured_scene;
 use steernav::{Backend, Detector, DetectorConfig};
 
@@ -39,8 +39,14 @@ fn stages(c: &mut Criterion) {
         let ctx = gpu.gpu().expect("gpu backend").context().clone();
         group.bench_function("gpu/filter bank (steered images)", |b| {
             b.iter(|| {
-                steernav::gpu::filter_bank::steered_images(&ctx, &cfg, &frame.gray, 640, 480)
-                    .unwrap()
+                steernav::features::filter_bank::gpu::steered_images(
+                    &ctx,
+                    &cfg,
+                    &frame.gray,
+                    640,
+                    480,
+                )
+                .unwrap()
             })
         });
         group.bench_function("gpu/harris (upload + passes + readback)", |b| {

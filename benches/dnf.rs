@@ -22,7 +22,7 @@ fn fields(c: &mut Criterion) {
         });
         if let Some(ctx) = &gpu {
             let mut field =
-                steernav::gpu::dnf::GpuFieldBatch::new(ctx.clone(), FieldConfig::default(), b)
+                steernav::nav::dnf::GpuFieldBatch::new(ctx.clone(), FieldConfig::default(), b)
                     .expect("fits");
             group.bench_function(format!("gpu/B={b}"), |bench| {
                 bench.iter(|| {

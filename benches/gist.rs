@@ -23,7 +23,7 @@ fn gist(c: &mut Criterion) {
     // The GPU bank (exact), FFT and direct DFTs. On lavapipe this measures a CPU rasteriser.
     match steernav::gpu::GpuContext::shared() {
         Ok(ctx) => {
-            use steernav::gpu::gist::{GistMethod, GpuGist};
+            use steernav::nav::gist::{GistMethod, GpuGist};
             let frames = vec![frame.clone(); 8];
             group.throughput(Throughput::Elements(8));
             for (name, config) in [

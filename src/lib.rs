@@ -13,21 +13,57 @@
 //! # Ok::<(), steernav::Error>(())
 //! ```
 #![warn(missing_docs)]
+// The library reports through `log` and return values; only the CLI prints.
+#![deny(clippy::print_stdout, clippy::print_stderr)]
+
+/// Gives a fieldless enum the names it has in TOML, JSON and on the command line: a `NAMES`
+/// list, `as_str`, `Display` and `FromStr`, so that front ends (the CLI, the Python bindings)
+/// parse the same words without depending on the library's types deriving their traits.
+macro_rules! named_variants {
+    ($ty:ident { $($variant:ident => $name:literal),+ $(,)? }) => {
+        impl $ty {
+            /// Every name, in declaration order.
+            pub const NAMES: &'static [&'static str] = &[$($name),+];
+            /// The name of this value.
+            pub fn as_str(self) -> &'static str {
+                match self { $($ty::$variant => $name),+ }
+            }
+        }
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.as_str())
+            }
+        }
+        impl std::str::FromStr for $ty {
+            type Err = crate::error::Error;
+            fn from_str(s: &str) -> crate::error::Result<Self> {
+                match s {
+                    $($name => Ok($ty::$variant),)+
+                    other => Err(crate::error::Error::config(
+                        stringify!($ty),
+                        other,
+                        format!("expected one of {}", Self::NAMES.join(", ")),
+                    )),
+                }
+            }
+        }
+    };
+}
 
 pub mod error;
 pub mod features;
 pub mod gpu;
 pub mod image;
+pub mod settings;
+pub mod simd;
 
 pub use error::{Error, Result};
 pub use features::{Backend, Detection, Detector, DetectorConfig, Keypoint};
 pub use image::Frame;
-pub mod batch;
-pub mod bench;
-pub mod draw;
 pub mod eval;
 pub mod nav;
 pub mod output;
+#[cfg(feature = "plot")]
 pub mod plot;
 pub mod slam;
 pub mod synth;

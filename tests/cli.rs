@@ -64,15 +64,7 @@ fn detect_writes_files_and_pictures_for_several_images() {
     std::fs::copy(sample(), &second).unwrap();
     let out_dir = dir.path().join("out");
     let out = steernav()
-        .args([
-            "detect",
-            "--backend",
-            "cpu",
-            "--format",
-            "csv",
-            "--draw",
-            "--out",
-        ])
+        .args(["detect", "--backend", "cpu", "--csv", "--draw", "--out"])
         .arg(&out_dir)
         .arg(sample())
         .arg(&second)
@@ -353,14 +345,14 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let traj = dir.path().join("traj.txt");
+    let traj = dir.path().join("trajectory.txt");
     let map = dir.path().join("map.json");
     let plot = dir.path().join("slam.png");
     let out = steernav()
         .args(["slam", seq.to_str().unwrap(), "--backend", "cpu", "--calib"])
         .arg(seq.join("calib.toml"))
         .arg("--out")
-        .arg(&traj)
+        .arg(dir.path())
         .arg("--map")
         .arg(&map)
         .arg("--plot")
@@ -588,7 +580,7 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let synth = dir.path().join("synth");
     let config = dir.path().join("drive.toml");
-    std::fs::write(&config, "k1 = 0.0\n").unwrap();
+    std::fs::write(&config, "[synthetic]\nk1 = 0.0\n").unwrap();
     let out = steernav()
         .args(["slam-synth", synth.to_str().unwrap(), "--motion", "drive"])
         .args(["--frames", "20", "--config", config.to_str().unwrap()])
@@ -622,11 +614,11 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     let truth = steernav::slam::trajectory::read_tum(&synth.join("groundtruth.txt")).unwrap();
     let rows: Vec<String> = truth.iter().map(steernav::slam::kitti::pose_row).collect();
     std::fs::write(kitti.join("poses.txt"), rows.join("\n") + "\n").unwrap();
-    let traj = dir.path().join("traj.txt");
+    let traj = dir.path().join("trajectory.txt");
     let run = |extra: &[&str]| {
         steernav()
             .args(["slam", kitti.to_str().unwrap(), "--backend", "cpu", "--out"])
-            .arg(&traj)
+            .arg(dir.path())
             .args(extra)
             .output()
             .unwrap()
@@ -700,12 +692,11 @@ fn slam_refuses_a_calibration_of_another_size_before_the_run() {
         "[camera]\nfx = 700\nfy = 700\ncx = 600\ncy = 180\nwidth = 1226\nheight = 370\n",
     )
     .unwrap();
-    let traj = dir.path().join("traj.txt");
     let out = steernav()
         .args(["slam", seq.to_str().unwrap(), "--backend", "cpu", "--calib"])
         .arg(&calib)
         .arg("--out")
-        .arg(&traj)
+        .arg(dir.path())
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);

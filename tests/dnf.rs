@@ -188,7 +188,7 @@ fn gpu_fields_match_the_cpu() {
         }
         let mut cpu = FieldBatch::new(cfg.clone(), fields).unwrap();
         let mut gpu =
-            steernav::gpu::dnf::GpuFieldBatch::new(ctx.clone(), cfg.clone(), fields).unwrap();
+            steernav::nav::dnf::GpuFieldBatch::new(ctx.clone(), cfg.clone(), fields).unwrap();
         // 1500 steps: several dispatches, far past lavapipe's per-invocation loop cap if run in one.
         cpu.step(&stimulus, 1500).unwrap();
         gpu.step(&stimulus, 1500).unwrap();

@@ -32,7 +32,7 @@ fn rotation_sweep_on_a_small_scene_writes_csv_and_figure() {
         Some(&det),
         None,
         &opts,
-        &indicatif::ProgressBar::hidden(),
+        &|_| {},
     )
     .unwrap();
     assert_eq!(rows.len(), angles.len() * opts.eps.len());

@@ -3,7 +3,7 @@
 
 mod common;
 
-use steernav::gpu::gist::{radices, GistMethod, GpuGist};
+use steernav::nav::gist::{radices, GistMethod, GpuGist};
 use steernav::nav::gist::{GistConfig, GistEngine};
 
 #[test]

@@ -8,8 +8,8 @@
 mod common;
 
 use steernav::features::harris::CpuHarris;
-use steernav::features::steerable::HarrisPlan;
-use steernav::gpu::harris::GpuHarris;
+use steernav::features::harris::GpuHarris;
+use steernav::features::harris::HarrisPlan;
 use steernav::synth::textured_scene;
 use steernav::{Backend, Detector, DetectorConfig};
 
@@ -30,7 +30,8 @@ fn filter_bank_matches_cpu() {
             ..Default::default()
         };
         let gpu =
-            steernav::gpu::filter_bank::steered_images(&ctx, &cfg, &frame.gray, W, H).unwrap();
+            steernav::features::filter_bank::gpu::steered_images(&ctx, &cfg, &frame.gray, W, H)
+                .unwrap();
         let cpu = steernav::features::filter_bank::steered_images(
             &cfg,
             &frame.gray,

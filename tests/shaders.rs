@@ -3,7 +3,7 @@
 #[test]
 fn every_shader_validates_with_naga() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
-    let mut count = 0;
+    let mut files = Vec::new();
     for entry in std::fs::read_dir(&dir).expect("shaders/ exists") {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "wgsl") {
@@ -16,9 +16,23 @@ fn every_shader_validates_with_naga() {
             )
             .validate(&module)
             .unwrap_or_else(|e| panic!("{}: {e:?}", path.display()));
-            count += 1;
+            files.push((
+                path.file_name().unwrap().to_string_lossy().into_owned(),
+                src,
+            ));
         }
     }
-    // Each embedded source is one of these files.
-    assert_eq!(count, steernav::gpu::pipelines::sources::ALL.len());
+    // Each file is embedded by exactly one stage's driver, under its own name.
+    let embedded: Vec<(&str, &str)> = [
+        &steernav::features::harris::gpu::SHADERS[..],
+        &steernav::features::filter_bank::gpu::SHADERS[..],
+        &steernav::nav::dnf::gpu::SHADERS[..],
+        &steernav::nav::gist::gpu::SHADERS[..],
+    ]
+    .concat();
+    assert_eq!(embedded.len(), files.len());
+    for (name, src) in &files {
+        let found = embedded.iter().find(|(n, _)| n == name);
+        assert_eq!(found.map(|(_, s)| *s), Some(src.as_str()), "{name}");
+    }
 }

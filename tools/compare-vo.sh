@@ -23,10 +23,10 @@ for ((i = 1; i <= $#; i++)); do
 done
 [ -x .venv-peers/bin/python ] || bash tools/setup-peers.sh >/dev/null
 cargo build --release --quiet
-./target/release/steernav slam "$seq" --out "$OUT/steernav.txt" "$@" >"$OUT/steernav.log" 2>&1 \
+./target/release/steernav slam "$seq" --out "$OUT" "$@" >"$OUT/steernav.log" 2>&1 \
   || { cat "$OUT/steernav.log" >&2; exit 1; }
 .venv-peers/bin/python tools/vo_baseline.py "$seq" --out "$OUT/vo.txt" "${calib[@]}" >/dev/null
 printf '%-28s' "steernav slam:"
-./target/release/steernav slam-eval "$OUT/steernav.txt" "$truth" "${times[@]}"
+./target/release/steernav slam-eval "$OUT/trajectory.txt" "$truth" "${times[@]}"
 printf '%-28s' "OpenCV VO (vo_baseline.py):"
 ./target/release/steernav slam-eval "$OUT/vo.txt" "$truth" "${times[@]}"

@@ -156,7 +156,7 @@ pub fn rotation_sweep(
     steernav: Option<&Detector>,
     peers: Option<(&PeerRunner, &[String])>,
     opts: &EvalOptions,
-    progress: &indicatif::ProgressBar,
+    progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
     let tmp = tempfile::tempdir().map_err(|source| Error::Io {
@@ -193,7 +193,7 @@ pub fn rotation_sweep(
                     h,
                     opts,
                 );
-                progress.inc(1);
+                progress(1);
             }
         }
         if let Some((runner, names)) = peers {
@@ -223,7 +223,7 @@ pub fn rotation_sweep(
                     }
                 }
             }
-            progress.inc(angles.len() as u64);
+            progress(angles.len() as u64);
         }
     }
     Ok(rows)

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 
 /// Order of the Gaussian-derivative basis that is steered (eq 3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BasisOrder {
     /// First derivatives (Gx, Gy): F(θ) = cosθ·Ix + sinθ·Iy.
@@ -14,6 +14,8 @@ pub enum BasisOrder {
     /// Second derivatives (Gxx, Gxy, Gyy): F(θ) = cos²θ·Ixx + 2cosθ sinθ·Ixy + sin²θ·Iyy.
     Second,
 }
+
+named_variants!(BasisOrder { First => "first", Second => "second" });
 
 impl BasisOrder {
     /// The derivative order n of the basis.
@@ -26,7 +28,7 @@ impl BasisOrder {
 }
 
 /// How the detections of all orientations and scales are merged into keypoints (section 2.2.2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MergeMode {
     /// Two-stage merge covariant with the image: k-means seeded from a radius suppression of
@@ -36,6 +38,8 @@ pub enum MergeMode {
     /// candidates, k = max_keypoints, then close means merged. Kept for comparison.
     KmeansPp,
 }
+
+named_variants!(MergeMode { Covariant => "covariant", KmeansPp => "kmeans-pp" });
 
 /// All parameters of the detector; `Default` gives the documented defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -6,8 +6,8 @@
 
 use rayon::prelude::*;
 
-use super::simd::fold_into;
 use super::steerable::{Kernel1d, Separable};
+use crate::simd::fold_into;
 
 /// Symmetry of a kernel about its centre, which halves the multiplications.
 #[derive(Clone, Copy, PartialEq)]

@@ -1,35 +1,37 @@
 //! The detector pipeline of section 2.2–2.3 behind one API, on either backend:
 //! Harris candidates (GPU or CPU) → two-stage merge (CPU) → descriptors (CPU).
 
-use std::sync::Once;
+use std::sync::Arc;
 
 use rayon::prelude::*;
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::cluster::merge;
 use super::config::DetectorConfig;
 use super::descriptor::describe;
+use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
-use super::steerable::HarrisPlan;
+use super::merge::merge;
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
-use crate::gpu::harris::{GpuHarris, GpuTimings};
-use crate::gpu::{gpu_required, GpuContext};
+use crate::features::harris::{GpuHarris, GpuTimings};
+use crate::gpu::GpuContext;
 use crate::image::Frame;
 
 /// Where the heavy image work runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Backend {
-    /// The GPU when an adapter exists, else the CPU (one warning line).
+    /// A hardware GPU when one exists, else the CPU (a `log` warning says why).
     Auto,
     /// WGSL compute shaders through wgpu; an error when no adapter exists.
     Gpu,
     /// The rayon reference implementation.
     Cpu,
 }
+
+named_variants!(Backend { Auto => "auto", Gpu => "gpu", Cpu => "cpu" });
 
 /// Wall-clock and GPU timings of one detection.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -86,15 +88,10 @@ pub struct Detector {
     fallback: bool,
 }
 
-static AUTO_WARNING: Once = Once::new();
-
-fn warn_once(message: &str) {
-    AUTO_WARNING.call_once(|| eprintln!("warning: {message}; using the CPU backend"));
-}
-
 impl Detector {
-    /// Validates the configuration and sets up the backend. `Auto` falls back to the CPU with
-    /// one warning line, unless `STEERNAV_REQUIRE_GPU=1` demands a GPU.
+    /// Validates the configuration and sets up the backend on the process-wide context
+    /// ([`GpuContext::shared`]). `Auto` takes a hardware GPU only and otherwise runs on the CPU,
+    /// saying why in a `log` warning; `Gpu` is an error when no adapter exists.
     pub fn new(config: &DetectorConfig, backend: Backend) -> Result<Self> {
         config.validate()?;
         let plan = HarrisPlan::new(config);
@@ -104,12 +101,7 @@ impl Detector {
             Backend::Auto => match crate::gpu::context::auto_context() {
                 Ok(ctx) => Some(GpuHarris::new(ctx, plan.clone())),
                 Err(reason) => {
-                    // A missing adapter is an error when a GPU is required; a software one
-                    // is never what `auto` should pick.
-                    if gpu_required() && GpuContext::shared().is_err() {
-                        return Err(Error::NoGpu(reason));
-                    }
-                    warn_once(&reason);
+                    log::warn!("{reason}; using the CPU backend");
                     None
                 }
             },
@@ -119,6 +111,20 @@ impl Detector {
             plan,
             gpu,
             fallback: backend == Backend::Auto,
+        })
+    }
+
+    /// A detector on a GPU context the caller owns (see [`GpuContext::from_device`]), for a
+    /// program that shares one wgpu device between steernav and its own work. Frames too large
+    /// for the device are an error, as with [`Backend::Gpu`].
+    pub fn with_context(config: &DetectorConfig, context: Arc<GpuContext>) -> Result<Self> {
+        config.validate()?;
+        let plan = HarrisPlan::new(config);
+        Ok(Self {
+            cpu: CpuHarris::new(plan.clone()),
+            gpu: Some(GpuHarris::new(context, plan.clone())),
+            plan,
+            fallback: false,
         })
     }
 
@@ -175,8 +181,8 @@ impl Detector {
                         cpu: None,
                     })
                 }
-                Err(Error::GpuLimit(msg)) if self.fallback && !gpu_required() => {
-                    eprintln!("warning: {msg}; this image goes to the CPU backend");
+                Err(Error::GpuLimit(msg)) if self.fallback => {
+                    log::warn!("{msg}; this image goes to the CPU backend");
                 }
                 Err(e) => return Err(e),
             }

@@ -1,14 +1,13 @@
 //! Rotation-invariant keypoints (paper section 2.2–2.3): steerable filter bank, multiscale
 //! Harris on every steered image, two-stage merge, 5-entropy colour descriptor.
 
-pub mod cluster;
 pub mod config;
 pub mod convolve;
 pub mod descriptor;
 pub mod detector;
 pub mod filter_bank;
 pub mod harris;
-pub mod simd;
+pub mod merge;
 pub mod steerable;
 
 use serde::{Deserialize, Serialize};

@@ -1,40 +1,59 @@
-//! The GPU context: instance, adapter, device and queue created once per process and shared.
-//! Pipelines are built once per context (see [`crate::gpu::pipelines`]).
+//! The GPU context: a wgpu device and queue, either the process-wide one steernav creates
+//! ([`GpuContext::shared`]) or one the application owns ([`GpuContext::from_device`]). Each
+//! stage compiles its pipelines on its first use on a context (see [`super::pipelines`]).
 
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex};
 
 use crate::error::{Error, Result};
 
 /// A wgpu device plus what we learned about it.
 pub struct GpuContext {
-    /// The adapter the device was created from.
-    pub adapter: wgpu::Adapter,
     /// The logical device.
     pub device: wgpu::Device,
     /// Its queue.
     pub queue: wgpu::Queue,
     /// Adapter name, backend, driver.
     pub info: wgpu::AdapterInfo,
-    /// The limits the device was created with (the adapter's own).
+    /// The limits the device was created with.
     pub limits: wgpu::Limits,
     /// Whether timestamp queries are available for per-stage timings.
     pub timestamps: bool,
-    pipelines: OnceLock<super::pipelines::Pipelines>,
+    pipelines: super::pipelines::PipelineCache,
 }
 
-static SHARED: OnceLock<Result<Arc<GpuContext>, String>> = OnceLock::new();
+/// The process-wide context once created. A failure is not kept: the next call asks again,
+/// so a robot whose GPU appears late (a driver still loading) can retry.
+static SHARED: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);
 
 impl GpuContext {
-    /// The process-wide context, created on first use. The Vulkan backend is preferred (see
-    /// WGPU.md: GL would find llvmpipe too); `WGPU_BACKEND` overrides it.
+    /// The process-wide context, created on first success. The primary backends (Vulkan,
+    /// Metal, DX12) are asked, not GL, which would find a software rasterizer even where a
+    /// Vulkan GPU exists; `WGPU_BACKEND` overrides the choice.
     pub fn shared() -> Result<Arc<GpuContext>> {
-        SHARED
-            .get_or_init(|| Self::create().map(Arc::new).map_err(|e| e.to_string()))
-            .clone()
-            .map_err(Error::NoGpu)
+        let mut shared = SHARED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(ctx) = shared.as_ref() {
+            return Ok(Arc::clone(ctx));
+        }
+        let ctx = Arc::new(Self::create()?);
+        *shared = Some(Arc::clone(&ctx));
+        Ok(ctx)
     }
 
-    /// Creates a new context (most callers want [`GpuContext::shared`]).
+    /// Wraps a device the application created and owns, so that steernav's stages run on it
+    /// beside the application's own work. `info` describes its adapter (`adapter.get_info()`);
+    /// timestamps are used when the device was created with `TIMESTAMP_QUERY`.
+    pub fn from_device(device: wgpu::Device, queue: wgpu::Queue, info: wgpu::AdapterInfo) -> Self {
+        Self {
+            limits: device.limits(),
+            timestamps: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
+            device,
+            queue,
+            info,
+            pipelines: Default::default(),
+        }
+    }
+
+    /// Creates a new context of its own (most callers want [`GpuContext::shared`]).
     pub fn create() -> Result<Self> {
         pollster::block_on(async {
             let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
@@ -63,16 +82,7 @@ impl GpuContext {
                         "device request (features {features:?}, adapter limits) failed: {e}"
                     ))
                 })?;
-            let info = adapter.get_info();
-            Ok(Self {
-                adapter,
-                device,
-                queue,
-                info,
-                limits,
-                timestamps: features.contains(wgpu::Features::TIMESTAMP_QUERY),
-                pipelines: OnceLock::new(),
-            })
+            Ok(Self::from_device(device, queue, adapter.get_info()))
         })
     }
 
@@ -84,10 +94,9 @@ impl GpuContext {
         auto_refusal(&self.info.name, self.info.device_type)
     }
 
-    /// The compute pipelines of this context, built on first use.
-    pub fn pipelines(&self) -> &super::pipelines::Pipelines {
-        self.pipelines
-            .get_or_init(|| super::pipelines::Pipelines::new(&self.device))
+    /// The pipelines of one stage on this context, compiled on the stage's first use.
+    pub fn pipelines<P: super::pipelines::PipelineSet>(&self) -> Arc<P> {
+        self.pipelines.get_or_build(&self.device)
     }
 
     /// A human-readable report of the adapter and the limits that matter to steernav.

@@ -2,10 +2,7 @@
 //! drivers of the WGSL stages.
 
 pub mod context;
-pub mod dnf;
-pub mod filter_bank;
-pub mod gist;
-pub mod harris;
+
 pub mod pipelines;
 pub mod util;
 

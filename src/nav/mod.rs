@@ -2,7 +2,6 @@
 //! directions (eqs 28–31), its stimuli and velocity laws (eqs 32–37). GIST, the simulator and
 //! the experiments come next.
 
-pub mod bench;
 pub mod carmen;
 pub mod dnf;
 pub mod gist;

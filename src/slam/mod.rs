@@ -8,10 +8,10 @@
 //! - [`ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
 
 pub mod association;
-pub mod bench;
 pub mod camera;
 pub mod config;
 pub mod ekf;
+#[cfg(feature = "plot")]
 pub mod figure;
 pub mod inverse_depth;
 pub mod kitti;

@@ -18,7 +18,7 @@ use crate::nav::stimulus::{
 use crate::synth::Rng;
 
 /// Which sensors drive the field.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Mode {
     /// LIDAR range/bearing stimulus only.
@@ -26,6 +26,8 @@ pub enum Mode {
     /// LIDAR plus the learned GIST stimulus of the camera.
     Fusion,
 }
+
+named_variants!(Mode { Laser => "laser", Fusion => "fusion" });
 
 /// Every parameter of an episode, with documented defaults (the `[nav]` TOML table).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -379,8 +381,8 @@ pub fn run(
 pub enum Fields {
     /// [`FieldBatch`] on CPU threads.
     Cpu(FieldBatch),
-    /// [`crate::gpu::dnf::GpuFieldBatch`]: one dispatch steps every episode's field.
-    Gpu(crate::gpu::dnf::GpuFieldBatch),
+    /// [`crate::nav::dnf::GpuFieldBatch`]: one dispatch steps every episode's field.
+    Gpu(crate::nav::dnf::GpuFieldBatch),
 }
 
 /// Runs many episodes in lockstep: every control period, all robots sense in parallel, one

@@ -13,9 +13,9 @@ use super::episode::{run, run_lockstep, Episode, Fields, Mode, NavConfig, Outcom
 use super::visual::VisualObstacleModel;
 use super::world::World;
 use crate::error::Result;
-use crate::gpu::dnf::GpuFieldBatch;
 use crate::gpu::GpuContext;
 use crate::nav::dnf::FieldBatch;
+use crate::nav::dnf::GpuFieldBatch;
 use crate::nav::gist::GistEngine;
 
 /// Figures of one mode over a set of episodes.

@@ -3,6 +3,7 @@
 
 pub mod episode;
 pub mod evaluate;
+#[cfg(feature = "plot")]
 pub mod figure;
 pub mod sensors;
 pub mod sweep;

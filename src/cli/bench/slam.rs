@@ -4,11 +4,11 @@
 
 use serde::Serialize;
 
-use super::config::SlamConfig;
-use super::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
-use super::tracker::{FrameReport, Slam};
-use crate::error::Result;
-use crate::features::{Backend, Detector, DetectorConfig};
+use steernav::error::Result;
+use steernav::features::{Backend, Detector, DetectorConfig};
+use steernav::slam::config::SlamConfig;
+use steernav::slam::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
+use steernav::slam::tracker::{FrameReport, Slam};
 
 /// One size and backend.
 #[derive(Clone, Debug, Serialize)]

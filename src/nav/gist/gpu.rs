@@ -11,11 +11,76 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::util::{bind_at, read_staging, staging, storage, storage_init, uniform};
-use super::GpuContext;
 use crate::error::{Error, Result};
+use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
+use crate::gpu::util::{bind_at, read_staging, staging, storage, storage_init, uniform};
+use crate::gpu::GpuContext;
 use crate::image::Frame;
 use crate::nav::gist::{gabor_bank, GistConfig, GistEngine};
+
+/// The stage's WGSL sources with their file names.
+pub const SHADERS: [(&str, &str); 2] = [
+    ("gist.wgsl", include_str!("../../../shaders/gist.wgsl")),
+    (
+        "gist_fft.wgsl",
+        include_str!("../../../shaders/gist_fft.wgsl"),
+    ),
+];
+
+/// `gist.wgsl`: the direct method's passes.
+struct GistPipelines {
+    forward_rows: wgpu::ComputePipeline,
+    forward_columns: wgpu::ComputePipeline,
+    inverse_columns: wgpu::ComputePipeline,
+    inverse_rows: wgpu::ComputePipeline,
+    window_means: wgpu::ComputePipeline,
+}
+
+impl GistPipelines {
+    /// The passes in the order one batch runs them (their bind groups follow that order).
+    fn in_pass_order(&self) -> [&wgpu::ComputePipeline; 5] {
+        [
+            &self.forward_rows,
+            &self.forward_columns,
+            &self.inverse_columns,
+            &self.inverse_rows,
+            &self.window_means,
+        ]
+    }
+}
+
+impl PipelineSet for GistPipelines {
+    fn build(device: &wgpu::Device) -> Self {
+        let module = shader_module(device, SHADERS[0].0, SHADERS[0].1);
+        let entry = |name| compute_pipeline(device, &module, name);
+        Self {
+            forward_rows: entry("forward_rows"),
+            forward_columns: entry("forward_columns"),
+            inverse_columns: entry("inverse_columns"),
+            inverse_rows: entry("inverse_rows"),
+            window_means: entry("window_means"),
+        }
+    }
+}
+
+/// `gist_fft.wgsl`: the FFT method's passes.
+struct GistFftPipelines {
+    fft_stage: wgpu::ComputePipeline,
+    apply_filters: wgpu::ComputePipeline,
+    window_means: wgpu::ComputePipeline,
+}
+
+impl PipelineSet for GistFftPipelines {
+    fn build(device: &wgpu::Device) -> Self {
+        let module = shader_module(device, SHADERS[1].0, SHADERS[1].1);
+        let entry = |name| compute_pipeline(device, &module, name);
+        Self {
+            fft_stage: entry("fft_stage"),
+            apply_filters: entry("apply_filters"),
+            window_means: entry("window_means"),
+        }
+    }
+}
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -205,21 +270,22 @@ impl GpuGist {
             let magnitude = storage(device, "gist magnitude", c * f * m * m * 4);
             let windows = storage(device, "gist windows", c * f * k * k * 4);
             let readback = staging(device, "gist readback", c * f * k * k * 4);
-            let p = &self.ctx.pipelines().gist;
+            let direct = self.ctx.pipelines::<GistPipelines>();
+            let p = direct.in_pass_order();
             let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
                 bind_at(device, pipeline, entries)
             };
             let groups = vec![
                 bind(
-                    &p[0],
+                    p[0],
                     &[(0, &params), (1, &self.twiddle), (2, &input), (3, &rows)],
                 ),
                 bind(
-                    &p[1],
+                    p[1],
                     &[(0, &params), (1, &self.twiddle), (3, &rows), (4, &spectrum)],
                 ),
                 bind(
-                    &p[2],
+                    p[2],
                     &[
                         (0, &params),
                         (1, &self.twiddle),
@@ -229,7 +295,7 @@ impl GpuGist {
                     ],
                 ),
                 bind(
-                    &p[3],
+                    p[3],
                     &[
                         (0, &params),
                         (1, &self.twiddle),
@@ -237,7 +303,7 @@ impl GpuGist {
                         (7, &magnitude),
                     ],
                 ),
-                bind(&p[4], &[(0, &params), (7, &magnitude), (8, &windows)]),
+                bind(p[4], &[(0, &params), (7, &magnitude), (8, &windows)]),
             ];
             self.batch = Some(Batch {
                 capacity,
@@ -282,7 +348,8 @@ impl GpuGist {
             let mut enc = ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
-                let p = &ctx.pipelines().gist;
+                let direct = ctx.pipelines::<GistPipelines>();
+                let p = direct.in_pass_order();
                 let x = |width: usize| width.div_ceil(64) as u32;
                 let dispatches = [
                     (x(n), n as u32, images as u32),
@@ -292,7 +359,7 @@ impl GpuGist {
                     (x(images * per), 1, 1),
                 ];
                 for (stage, &(gx, gy, gz)) in dispatches.iter().enumerate() {
-                    pass.set_pipeline(&p[stage]);
+                    pass.set_pipeline(p[stage]);
                     pass.set_bind_group(0, &batch.groups[stage], &[]);
                     pass.dispatch_workgroups(gx, gy, gz);
                 }
@@ -353,7 +420,7 @@ impl GpuGist {
         let planes_d = storage(device, "gist fft d", c * f * n * n * 8);
         let windows = storage(device, "gist windows", c * f * k * k * 4);
         let readback = staging(device, "gist readback", c * f * k * k * 4);
-        let p = &self.ctx.pipelines().gist_fft;
+        let p = self.ctx.pipelines::<GistFftPipelines>();
         let bind = |pipeline: &wgpu::ComputePipeline, entries: &[(u32, &wgpu::Buffer)]| {
             bind_at(device, pipeline, entries)
         };
@@ -381,7 +448,7 @@ impl GpuGist {
                     } else {
                         (second, first)
                     };
-                    let group = bind(&p[0], &[(0, &buffer), (1, src), (2, dst)]);
+                    let group = bind(&p.fft_stage, &[(0, &buffer), (1, src), (2, dst)]);
                     out.push((buffer, group, stage));
                     ns *= radix;
                 }
@@ -391,10 +458,13 @@ impl GpuGist {
         let forward = stages(0, &a, &b);
         let inverse = stages(1, &planes_c, &planes_d);
         let filters_group = bind(
-            &p[1],
+            &p.apply_filters,
             &[(0, &bank), (3, &a), (4, &self.gains), (5, &planes_c)],
         );
-        let windows_group = bind(&p[2], &[(0, &bank), (6, &planes_c), (7, &windows)]);
+        let windows_group = bind(
+            &p.window_means,
+            &[(0, &bank), (6, &planes_c), (7, &windows)],
+        );
         self.fft = Some(FftBatch {
             capacity: capacity as usize,
             bank,
@@ -446,8 +516,8 @@ impl GpuGist {
             let mut enc = ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
-                let p = &ctx.pipelines().gist_fft;
-                pass.set_pipeline(&p[0]);
+                let p = ctx.pipelines::<GistFftPipelines>();
+                pass.set_pipeline(&p.fft_stage);
                 for (_, group, stage) in &batch.forward {
                     pass.set_bind_group(0, group, &[]);
                     pass.dispatch_workgroups(
@@ -456,10 +526,10 @@ impl GpuGist {
                         images as u32,
                     );
                 }
-                pass.set_pipeline(&p[1]);
+                pass.set_pipeline(&p.apply_filters);
                 pass.set_bind_group(0, &batch.filters_group, &[]);
                 pass.dispatch_workgroups((n * n).div_ceil(64) as u32, 1, (images * filters) as u32);
-                pass.set_pipeline(&p[0]);
+                pass.set_pipeline(&p.fft_stage);
                 for (_, group, stage) in &batch.inverse {
                     pass.set_bind_group(0, group, &[]);
                     pass.dispatch_workgroups(
@@ -468,7 +538,7 @@ impl GpuGist {
                         (images * filters) as u32,
                     );
                 }
-                pass.set_pipeline(&p[2]);
+                pass.set_pipeline(&p.window_means);
                 pass.set_bind_group(0, &batch.windows_group, &[]);
                 pass.dispatch_workgroups((images * per).div_ceil(64) as u32, 1, 1);
             }

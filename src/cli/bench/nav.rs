@@ -5,14 +5,14 @@
 use std::time::Instant;
 
 use crate::bench::{percentile, BenchRow};
-use crate::error::Result;
-use crate::features::Backend;
-use crate::gpu::dnf::GpuFieldBatch;
-use crate::gpu::gist::GpuGist;
-use crate::gpu::GpuContext;
-use crate::nav::dnf::{bell, FieldBatch, FieldConfig};
-use crate::nav::gist::{GistConfig, GistEngine};
-use crate::nav::sim::visual::VisualConfig;
+use steernav::error::Result;
+use steernav::features::Backend;
+use steernav::gpu::GpuContext;
+use steernav::nav::dnf::GpuFieldBatch;
+use steernav::nav::dnf::{bell, FieldBatch, FieldConfig};
+use steernav::nav::gist::GpuGist;
+use steernav::nav::gist::{GistConfig, GistEngine};
+use steernav::nav::sim::visual::VisualConfig;
 
 /// Euler steps per timed field run.
 pub const FIELD_STEPS: usize = 100;
@@ -58,7 +58,7 @@ pub fn run(
     progress: &indicatif::ProgressBar,
 ) -> Result<Vec<BenchRow>> {
     let mut rows = Vec::new();
-    let frame = crate::synth::textured_scene(320, 240, 5);
+    let frame = steernav::synth::textured_scene(320, 240, 5);
     let gist_configs = [
         ("256x256", GistConfig::default()),
         ("64x64", VisualConfig::default().gist),

@@ -324,7 +324,7 @@ fn amari_block(
     steps: usize,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if crate::features::simd::has_avx2_fma() {
+    if crate::simd::has_avx2_fma() {
         // SAFETY: the CPU supports AVX2 and FMA (checked above).
         return unsafe { amari_block_avx2(cfg, excite, inhibit, width, u, s, steps) };
     }
@@ -435,7 +435,7 @@ fn run_steps(
     steps: usize,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if crate::features::simd::has_avx2_fma() {
+    if crate::simd::has_avx2_fma() {
         // SAFETY: the CPU supports AVX2 and FMA (checked above).
         return unsafe { run_steps_avx2(cfg, kernel, u, s, f, lateral, ext, steps) };
     }

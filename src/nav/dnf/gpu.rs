@@ -6,8 +6,25 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::util::{bind, read_storage, storage, storage_init, uniform};
-use super::GpuContext;
+use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
+use crate::gpu::util::{bind, read_storage, storage, storage_init, uniform};
+use crate::gpu::GpuContext;
+
+/// The stage's WGSL source with its file name.
+pub const SHADERS: [(&str, &str); 1] = [("dnf.wgsl", include_str!("../../../shaders/dnf.wgsl"))];
+
+struct DnfPipeline(wgpu::ComputePipeline);
+
+impl PipelineSet for DnfPipeline {
+    fn build(device: &wgpu::Device) -> Self {
+        let (name, source) = SHADERS[0];
+        Self(compute_pipeline(
+            device,
+            &shader_module(device, name, source),
+            "main",
+        ))
+    }
+}
 use crate::error::{Error, Result};
 use crate::nav::dnf::{check_stimulus, Activation, FieldConfig, Interaction};
 
@@ -118,7 +135,7 @@ impl GpuFieldBatch {
         let params = uniform(device, "dnf params", &base);
         let group = bind(
             device,
-            &ctx.pipelines().dnf,
+            &ctx.pipelines::<DnfPipeline>().0,
             &[&params, &kernel, &stimulus, &u],
         );
         Ok(Self {
@@ -153,7 +170,7 @@ impl GpuFieldBatch {
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&self.ctx.pipelines().dnf);
+                pass.set_pipeline(&self.ctx.pipelines::<DnfPipeline>().0);
                 pass.set_bind_group(0, &self.group, &[]);
                 for _ in 0..dispatches {
                     pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);

@@ -1,16 +1,21 @@
-//! Batch detection over a directory tree: images decoded on CPU threads while the detector
+//! `steernav batch`: detection over a directory tree: images decoded on CPU threads while the detector
 //! (GPU or CPU) works, one JSON per image written atomically, a summary CSV, re-runs skip what
 //! is done, unreadable files are reported and skipped without stopping the batch.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::sync_channel;
 use std::time::Instant;
 
-use crate::error::{Error, Result};
-use crate::features::Detector;
-use crate::image::Frame;
-use crate::output::{write_atomic, ImageKeypoints};
+use steernav::error::{Error, Result};
+use steernav::features::Detector;
+use steernav::image::Frame;
+use steernav::output::{write_atomic, ImageKeypoints};
+
+use clap::Args;
+
+use crate::args::DetectorArgs;
 
 /// File extensions the batch picks up (case-insensitive).
 pub const IMAGE_EXTENSIONS: [&str; 9] = [
@@ -91,7 +96,7 @@ pub struct BatchOptions {
     pub draw: bool,
     /// Show a progress bar on stderr.
     pub progress: bool,
-    /// Largest image accepted, pixels (see [`crate::image::DEFAULT_MAX_PIXELS`]).
+    /// Largest image accepted, pixels (see [`steernav::image::DEFAULT_MAX_PIXELS`]).
     pub max_pixels: u64,
 }
 
@@ -263,4 +268,47 @@ pub fn summary_csv(entries: &[Entry]) -> String {
         s.push_str(&row);
     }
     s
+}
+
+#[derive(Args)]
+pub struct BatchCmd {
+    /// Directory searched recursively for images.
+    input: PathBuf,
+    /// Output directory: one <image>.json per image (mirroring the input tree) and summary.csv.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    #[command(flatten)]
+    detector: DetectorArgs,
+    /// Redo images whose JSON already exists (by default a re-run skips them).
+    #[arg(long)]
+    force: bool,
+    /// Also write a PNG with the keypoints next to each JSON.
+    #[arg(long)]
+    draw: bool,
+}
+
+pub fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
+    let detector = cmd.detector.detector()?;
+    let opts = BatchOptions {
+        input: cmd.input,
+        output: cmd.out,
+        force: cmd.force,
+        draw: cmd.draw,
+        progress: true,
+        max_pixels: cmd.detector.max_pixels,
+    };
+    let entries = run(&detector, &opts)?;
+    let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
+    let done = count(|o| matches!(o, Outcome::Done { .. }));
+    let skipped = count(|o| matches!(o, Outcome::Skipped));
+    let failed = count(|o| matches!(o, Outcome::Failed(_)));
+    eprintln!(
+        "{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed; summary in {}",
+        opts.output.join("summary.csv").display()
+    );
+    Ok(if failed > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
 }

@@ -1,13 +1,13 @@
 //! The steerable filter bank itself (eqs 3–4): basis responses I * B_i and the steered images
 //! F(θ_n) = Σ c_i(θ_n)(I * B_i). CPU twin of `shaders/steer.wgsl` (driven by
-//! [`crate::gpu::filter_bank`]). The detector never materialises F(θ): it steers the gradient
+//! [`crate::features::filter_bank::gpu`]). The detector never materialises F(θ): it steers the gradient
 //! basis instead (see [`super::steerable`]); these images are for inspection and parity.
 
 use rayon::prelude::*;
 
-use super::config::DetectorConfig;
-use super::convolve::convolve_separable;
-use super::steerable::{basis_filters, orientations, steering_coefficients};
+use crate::features::config::DetectorConfig;
+use crate::features::convolve::convolve_separable;
+use crate::features::steerable::{basis_filters, orientations, steering_coefficients};
 
 /// Steering coefficients of every orientation, layout `[θ][basis]`.
 pub fn steering_table(config: &DetectorConfig) -> Vec<f32> {

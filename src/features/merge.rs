@@ -15,7 +15,7 @@
 use rayon::prelude::*;
 
 use super::config::MergeMode;
-use super::steerable::HarrisPlan;
+use super::harris::HarrisPlan;
 use super::Candidate;
 
 /// A merged cluster before its descriptor is computed.

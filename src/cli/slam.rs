@@ -7,7 +7,6 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 use steernav::slam::camera::PinholeCamera;
-use steernav::slam::config::SlamConfig;
 use steernav::slam::figure::{slam_figure, EstimatedPose};
 use steernav::slam::kitti;
 use steernav::slam::motion::{relative_motion, MotionModel};
@@ -17,7 +16,7 @@ use steernav::slam::tracker::{FrameReport, Slam};
 use steernav::slam::trajectory::{self, tum_line, Pose};
 use steernav::Frame;
 
-use super::{load_toml, DetectorArgs};
+use crate::args::{progress, DetectorArgs};
 
 #[derive(Args)]
 pub struct SlamCmd {
@@ -35,8 +34,9 @@ pub struct SlamCmd {
     /// model (u_k of eq 15 = relative motion between frames, interpolated at frame times).
     #[arg(long, value_name = "FILE")]
     odometry: Option<PathBuf>,
-    /// Estimated trajectory, written frame by frame (see --format).
-    #[arg(long, value_name = "FILE", default_value = "traj.txt")]
+    /// Output directory: the estimated trajectory goes to DIR/trajectory.txt, written frame by
+    /// frame (see --format).
+    #[arg(long, value_name = "DIR", default_value = "slam-out")]
     out: PathBuf,
     /// Trajectory format: `tum` (t tx ty tz qx qy qz qw) or `kitti` (the 3×4 camera-to-world
     /// matrix, 12 values per row, one row per frame).
@@ -58,24 +58,16 @@ pub struct SlamCmd {
     /// Process at most this many frames.
     #[arg(long, value_name = "N")]
     max_frames: Option<usize>,
-    /// TOML file with a [slam] table (every key of SlamConfig optional; see README).
-    #[arg(long = "slam-config", value_name = "FILE")]
-    slam_config: Option<PathBuf>,
     /// Ground truth to evaluate against at the end (TUM, EuRoC data.csv, or KITTI pose rows,
     /// one per frame); defaults to groundtruth.txt / groundtruth_tum.txt / poses.txt beside
     /// the frames. Read and checked before the run.
     #[arg(long, value_name = "FILE")]
     ground_truth: Option<PathBuf>,
-    /// Detector flags; without --config, slam starts from the tracking preset (6
-    /// orientations, 3 scales) rather than detect's defaults.
+    /// The backend, the settings file ([slam] and [detector] tables) and detector flags;
+    /// without a [detector] table, slam starts from the tracking preset (6 orientations, 3
+    /// scales) rather than detect's defaults.
     #[command(flatten)]
     detector: DetectorArgs,
-}
-
-#[derive(serde::Deserialize, Default)]
-#[serde(default, deny_unknown_fields)]
-struct SlamFile {
-    slam: SlamConfig,
 }
 
 /// The motions of `slam-synth`.
@@ -128,22 +120,11 @@ pub struct SlamSynthCmd {
     /// 10 m/s and 10 Hz with turns, scene depths 3–50 m). Each has its own defaults.
     #[arg(long, value_enum, default_value_t = MotionArg::Room)]
     motion: MotionArg,
-    /// TOML file with keys of SyntheticConfig (width, height, fov_deg, k1, fps, room,
-    /// amplitude, speed, camera_height, period, texels_per_metre, seed) over the motion's
+    /// Settings file whose [synthetic] table (width, height, fov_deg, k1, fps, room,
+    /// amplitude, speed, camera_height, period, texels_per_metre, seed) goes over the motion's
     /// defaults; --frames overrides.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
-}
-
-fn progress(len: usize, what: &str) -> indicatif::ProgressBar {
-    let bar = indicatif::ProgressBar::new(len as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(&format!(
-            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  ETA {{eta}}  {{msg}}"
-        ))
-        .expect("valid template"),
-    );
-    bar
 }
 
 pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
@@ -185,7 +166,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         Some(p) => Some(sequence::read_ground_truth(p, &frame_times)?),
         None => None,
     };
-    let mut config = load_toml::<SlamFile>(cmd.slam_config.as_deref())?.slam;
+    let mut config = cmd.detector.config.settings()?.slam;
     let odometry = match &cmd.odometry {
         Some(path) => {
             if matches!(config.motion, MotionModel::ConstantVelocity { .. }) {
@@ -204,11 +185,13 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     }
     let frames = &seq.frames[..seq.frames.len().min(cmd.max_frames.unwrap_or(usize::MAX))];
     let out_err = |p: &Path| format!("{}: cannot write", p.display());
+    std::fs::create_dir_all(&cmd.out).with_context(|| out_err(&cmd.out))?;
+    let traj_path = cmd.out.join("trajectory.txt");
     let mut traj = std::io::BufWriter::new(
-        std::fs::File::create(&cmd.out).with_context(|| out_err(&cmd.out))?,
+        std::fs::File::create(&traj_path).with_context(|| out_err(&traj_path))?,
     );
     if cmd.format == TrajectoryFormat::Tum {
-        writeln!(traj, "# timestamp tx ty tz qx qy qz qw").with_context(|| out_err(&cmd.out))?;
+        writeln!(traj, "# timestamp tx ty tz qx qy qz qw").with_context(|| out_err(&traj_path))?;
     }
     let mut report = match &cmd.report {
         Some(path) => {
@@ -278,8 +261,8 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             TrajectoryFormat::Tum => tum_line(&pose),
             TrajectoryFormat::Kitti => kitti::pose_row(&pose),
         };
-        writeln!(traj, "{line}").with_context(|| out_err(&cmd.out))?;
-        traj.flush().with_context(|| out_err(&cmd.out))?;
+        writeln!(traj, "{line}").with_context(|| out_err(&traj_path))?;
+        traj.flush().with_context(|| out_err(&traj_path))?;
         if let Some((path, f)) = &mut report {
             let t = &r.timings;
             writeln!(
@@ -360,7 +343,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         1e3 / mean(|r| r.timings.total_ms).max(1e-9),
         map.len()
     );
-    println!("trajectory: {}", cmd.out.display());
+    println!("trajectory: {}", traj_path.display());
     let estimate: Vec<Pose> = estimated.iter().map(|e| e.pose).collect();
     let mut aligned_truth = None;
     if let (Some(truth), Some(path)) = (&truth, &truth_path) {
@@ -480,8 +463,14 @@ pub fn slam_synth(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
         // The file's keys go over the motion's defaults (unknown keys still refused).
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("{}: cannot read config", path.display()))?;
-        let over: toml::Table = toml::from_str(&text)
+        // Checked as a whole first, so a stray table or key is refused by name.
+        steernav::settings::Settings::from_toml_str(&text)
             .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?;
+        let mut file: toml::Table = toml::from_str(&text)?;
+        let over = match file.remove("synthetic") {
+            Some(toml::Value::Table(t)) => t,
+            _ => toml::Table::new(),
+        };
         let mut merged = toml::Table::try_from(&config)?;
         merged.extend(over);
         config = merged

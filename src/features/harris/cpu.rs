@@ -6,10 +6,10 @@ use std::sync::Mutex;
 
 use rayon::prelude::*;
 
-use super::convolve::{column_at, convolve_separable, row_at};
-use super::simd::axpy;
-use super::steerable::{harris_response, HarrisPlan};
-use super::Candidate;
+use super::plan::{harris_response, HarrisPlan};
+use crate::features::convolve::{column_at, convolve_separable, row_at};
+use crate::features::Candidate;
+use crate::simd::axpy;
 
 /// Response planes, kept between frames of the same size.
 #[derive(Default)]
@@ -115,7 +115,7 @@ impl CpuHarris {
         loop {
             let mut found = suppress(&self.plan, &ws.responses, width, height, threshold);
             if found.len() <= self.plan.config.candidate_capacity {
-                super::sort_candidates(&mut found);
+                crate::features::sort_candidates(&mut found);
                 let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
                 let timings = CpuTimings {
                     responses_ms: ms(t1 - t0),
@@ -123,7 +123,7 @@ impl CpuHarris {
                 };
                 return (found, threshold, timings);
             }
-            threshold = super::raised_threshold(threshold);
+            threshold = crate::features::raised_threshold(threshold);
         }
     }
 

@@ -2,11 +2,153 @@
 //! the CPU and the GPU, after warm-up, as median and spread over repeated runs. GPU pass times
 //! come from timestamp queries; the rest is wall-clock time.
 
-use serde::Serialize;
+pub mod nav;
+pub mod slam;
 
-use crate::error::Result;
-use crate::features::{Backend, Detection, Detector, DetectorConfig};
-use crate::synth::textured_scene;
+use std::process::ExitCode;
+
+use anyhow::bail;
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+use steernav::error::Result;
+use steernav::features::{Backend, Detection, Detector, DetectorConfig};
+use steernav::synth::textured_scene;
+
+use crate::args::{choice, ConfigArg, DetectorFlags};
+
+/// What `bench` times.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Suite {
+    /// Every stage of the detector per image size.
+    Detect,
+    /// GIST per image and the neural field at B = 1, 64, 4096.
+    Nav,
+    /// The whole SLAM loop per frame on a generated 10 Hz drive, split per stage.
+    Slam,
+}
+
+#[derive(Args)]
+pub struct BenchCmd {
+    /// What to time: detect (every stage of the detector per image size), nav (GIST per
+    /// image and the neural field at B = 1, 64, 4096) or slam (the whole SLAM loop per frame
+    /// on a generated 10 Hz drive, split per stage).
+    #[arg(long, value_enum, default_value_t = Suite::Detect)]
+    suite: Suite,
+    /// Image sizes, WxH separated by commas [default: 320x240,640x480,1280x720,1920x1080
+    /// for detect; 640x480,1241x376 for slam].
+    #[arg(long, value_name = "LIST")]
+    sizes: Option<String>,
+    /// Frames of the generated drive per size and backend (slam suite).
+    #[arg(long, default_value_t = 100)]
+    frames: usize,
+    /// Backends to time, separated by commas: cpu, gpu (auto means gpu when it is a hardware
+    /// adapter).
+    #[arg(long, default_value = "cpu,gpu", value_delimiter = ',', value_parser = choice::<Backend>(Backend::NAMES))]
+    backend: Vec<Backend>,
+    /// Untimed runs before measuring, per size and backend.
+    #[arg(long, default_value_t = 2)]
+    warmup: usize,
+    /// Timed runs per size and backend.
+    #[arg(long, default_value_t = 10)]
+    runs: usize,
+    /// Print a JSON array of {stage, backend, size, median_ms, p10_ms, p90_ms} instead of the table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    flags: DetectorFlags,
+    #[command(flatten)]
+    config: ConfigArg,
+}
+
+pub fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
+    let default_sizes = if cmd.suite == Suite::Slam {
+        "640x480,1241x376"
+    } else {
+        "320x240,640x480,1280x720,1920x1080"
+    };
+    let sizes =
+        parse_sizes(cmd.sizes.as_deref().unwrap_or(default_sizes)).map_err(anyhow::Error::msg)?;
+    let mut backends = Vec::new();
+    for b in &cmd.backend {
+        let b = match b {
+            Backend::Auto => match steernav::gpu::context::auto_context() {
+                Ok(_) => Backend::Gpu,
+                Err(reason) => {
+                    log::warn!("{reason}; --backend auto times the CPU");
+                    Backend::Cpu
+                }
+            },
+            other => *other,
+        };
+        if !backends.contains(&b) {
+            backends.push(b);
+        }
+    }
+    let config = cmd.flags.apply(cmd.config.settings()?.detector)?;
+    let adapter = if backends.contains(&Backend::Gpu) {
+        match steernav::gpu::GpuContext::shared() {
+            Ok(ctx) => Some(format!(
+                "{} ({:?}, {:?})",
+                ctx.info.name, ctx.info.backend, ctx.info.device_type
+            )),
+            Err(e) if !steernav::gpu::gpu_required() => {
+                log::warn!("{e}; timing the CPU only");
+                backends.retain(|b| *b != Backend::Gpu);
+                None
+            }
+            Err(e) => return Err(e.into()),
+        }
+    } else {
+        None
+    };
+    let bar = indicatif::ProgressBar::new((sizes.len() * backends.len() * cmd.runs.max(1)) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  ETA {eta}")
+            .expect("valid template"),
+    );
+    if cmd.suite == Suite::Slam {
+        if cmd.frames < 10 {
+            bail!(
+                "--frames: {} is too few for a median (at least 10)",
+                cmd.frames
+            );
+        }
+        bar.set_length((sizes.len() * backends.len() * cmd.frames) as u64);
+        let rows = slam::run(&sizes, &backends, cmd.frames, || bar.inc(1))?;
+        bar.finish_and_clear();
+        if cmd.json {
+            println!("{}", serde_json::to_string_pretty(&rows)?);
+        } else {
+            print!("{}", slam::table(&rows));
+            if let Some(adapter) = &adapter {
+                println!("gpu: {adapter}");
+            }
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    if cmd.suite == Suite::Nav {
+        bar.set_length((6 * backends.len() * cmd.runs.max(1)) as u64);
+        let rows = nav::run(&backends, cmd.warmup, cmd.runs, &bar)?;
+        bar.finish_and_clear();
+        if cmd.json {
+            println!("{}", serde_json::to_string_pretty(&rows)?);
+        } else {
+            print!("{}", nav::table(&rows, adapter.as_deref()));
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+    let rows = run(&config, &sizes, &backends, cmd.warmup, cmd.runs, &bar)?;
+    bar.finish_and_clear();
+    if cmd.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        print!("{}", table(&rows, adapter.as_deref()));
+        if adapter.as_deref().is_some_and(|a| a.contains("llvmpipe")) {
+            println!("\nnote: llvmpipe (lavapipe) runs shaders on the CPU: its GPU times prove correctness, not GPU speed.");
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
 
 /// One measured stage.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -86,7 +228,7 @@ pub fn parse_sizes(spec: &str) -> std::result::Result<Vec<(u32, u32)>, String> {
             let h: u32 = h
                 .parse()
                 .map_err(|_| format!("--sizes: bad height in '{s}'"))?;
-            crate::image::check_size("--sizes", w, h).map_err(|e| e.to_string())?;
+            steernav::image::check_size("--sizes", w, h).map_err(|e| e.to_string())?;
             Ok((w, h))
         })
         .collect()

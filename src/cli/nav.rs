@@ -1,4 +1,5 @@
-//! The `nav` and `nav-eval` subcommands.
+//! `steernav nav`, `nav-eval`, `nav-sweep` and `nav-replay`: the neural field in the
+//! simulator and on real laser logs.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -14,14 +15,9 @@ use steernav::nav::sim::evaluate::{
 use steernav::nav::sim::figure::episode_figure;
 use steernav::nav::sim::sweep::sweep;
 use steernav::nav::sim::world::World;
+use steernav::Backend;
 
-use super::load_toml;
-
-#[derive(serde::Deserialize, Default)]
-#[serde(default, deny_unknown_fields)]
-struct NavFile {
-    nav: NavConfig,
-}
+use crate::args::{choice, BackendArg, ConfigArg};
 
 #[derive(Args)]
 pub struct NavCmd {
@@ -33,7 +29,7 @@ pub struct NavCmd {
     #[arg(long, value_name = "SEED")]
     random: Option<u64>,
     /// Sensors driving the field: laser (LIDAR alone) or fusion (LIDAR + learned GIST).
-    #[arg(long, value_enum, default_value_t = Mode::Laser)]
+    #[arg(long, default_value = "laser", value_parser = choice::<Mode>(Mode::NAMES))]
     mode: Mode,
     /// PNG: the world with the trajectory (Fig. 6) and the field activity over time (Fig. 5a).
     #[arg(long, value_name = "FILE")]
@@ -44,9 +40,8 @@ pub struct NavCmd {
     /// Seed of the sensor noise (and of the training worlds).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// TOML with a [nav] table: field, stimulus, lidar, camera, visual and the control keys.
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
+    #[command(flatten)]
+    config: ConfigArg,
     /// Print the episode's outcome, time, path length and position error std as JSON.
     #[arg(long)]
     json: bool,
@@ -69,9 +64,8 @@ pub struct NavEvalCmd {
     /// Training episodes of the visual model before fusion is evaluated.
     #[arg(long, default_value_t = 20)]
     train: usize,
-    /// TOML with a [nav] table (as for `nav`).
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
+    #[command(flatten)]
+    config: ConfigArg,
     /// Print {"laser": {...}, "fusion": {...}} for the worlds as generated (keys episodes,
     /// success_rate, collisions, path_length, time_to_goal, position_error_std). `--invisible
     /// 0` gives the same worlds with every obstacle visible, the visual model then trained on
@@ -81,10 +75,10 @@ pub struct NavEvalCmd {
     /// PNG: success and collision rates per mode, with and without invisible obstacles.
     #[arg(long, value_name = "FILE")]
     plot: Option<PathBuf>,
-    /// Where the batched field runs: cpu (FieldBatch on all cores) or gpu (one dispatch chain
-    /// steps every episode's field). On lavapipe the CPU is faster.
-    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
-    field_backend: String,
+    /// The batched field steps every episode on the GPU in one dispatch chain, or on all CPU
+    /// cores.
+    #[command(flatten)]
+    backend: BackendArg,
 }
 
 #[derive(Args)]
@@ -99,7 +93,7 @@ pub struct NavSweepCmd {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Sensors: laser or fusion (fusion trains the visual model first, as nav-eval does).
-    #[arg(long, value_enum, default_value_t = Mode::Laser)]
+    #[arg(long, default_value = "laser", value_parser = choice::<Mode>(Mode::NAMES))]
     mode: Mode,
     /// Obstacles per world.
     #[arg(long, default_value_t = 8)]
@@ -107,35 +101,43 @@ pub struct NavSweepCmd {
     /// Fraction of obstacles below the LIDAR's scan plane.
     #[arg(long, default_value_t = 0.0)]
     invisible: f32,
-    /// Base configuration: TOML with a [nav] table; the sweep varies τ, h, eq 31's inhibition,
-    /// c_o, σ, g's distance scale and the turn gain around it.
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
+    /// The sweep varies τ, h, eq 31's inhibition, c_o, σ, g's distance scale and the turn
+    /// gain around the settings file's [nav] table.
+    #[command(flatten)]
+    config: ConfigArg,
     /// Print every candidate's parameters and figures as a JSON array, best first.
     #[arg(long)]
     json: bool,
-    /// Where the batched field runs: cpu (FieldBatch on all cores) or gpu (one dispatch chain
-    /// steps every episode's field). On lavapipe the CPU is faster.
-    #[arg(long, default_value = "cpu", value_parser = ["cpu", "gpu"])]
-    field_backend: String,
+    /// The batched field steps every episode on the GPU in one dispatch chain, or on all CPU
+    /// cores.
+    #[command(flatten)]
+    backend: BackendArg,
 }
 
-fn field_gpu(backend: &str) -> anyhow::Result<Option<std::sync::Arc<steernav::gpu::GpuContext>>> {
-    Ok(if backend == "gpu" {
-        Some(steernav::gpu::GpuContext::shared()?)
-    } else {
-        None
+fn field_gpu(
+    backend: &BackendArg,
+) -> anyhow::Result<Option<std::sync::Arc<steernav::gpu::GpuContext>>> {
+    Ok(match backend.backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(steernav::gpu::GpuContext::shared()?),
+        Backend::Auto => match steernav::gpu::context::auto_context() {
+            Ok(ctx) => Some(ctx),
+            Err(reason) => {
+                log::warn!("{reason}; the field runs on the CPU");
+                None
+            }
+        },
     })
 }
 
-fn config(path: Option<&std::path::Path>) -> anyhow::Result<NavConfig> {
-    let cfg = load_toml::<NavFile>(path)?.nav;
+fn config(arg: &ConfigArg) -> anyhow::Result<NavConfig> {
+    let cfg = arg.settings()?.nav;
     cfg.validate()?;
     Ok(cfg)
 }
 
 pub fn nav(cmd: NavCmd) -> anyhow::Result<ExitCode> {
-    let cfg = config(cmd.config.as_deref())?;
+    let cfg = config(&cmd.config)?;
     let world = match (&cmd.world, cmd.random) {
         (Some(path), _) => World::load(path)?,
         (None, Some(seed)) => World::random(seed, 8, 0.4),
@@ -194,7 +196,7 @@ pub fn nav(cmd: NavCmd) -> anyhow::Result<ExitCode> {
 }
 
 pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
-    let cfg = config(cmd.config.as_deref())?;
+    let cfg = config(&cmd.config)?;
     if !(0.0..=1.0).contains(&cmd.invisible) {
         anyhow::bail!("--invisible: {} is not in [0, 1]", cmd.invisible);
     }
@@ -226,7 +228,7 @@ pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
         bar.inc(1);
     };
     bar.set_message("worlds with LIDAR-invisible obstacles");
-    let gpu = field_gpu(&cmd.field_backend)?;
+    let gpu = field_gpu(&cmd.backend)?;
     let hidden = compare(
         &cfg,
         &gist,
@@ -310,7 +312,7 @@ fn print_table(c: &Comparison) -> anyhow::Result<()> {
 }
 
 pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
-    let base = config(cmd.config.as_deref())?;
+    let base = config(&cmd.config)?;
     if !(0.0..=1.0).contains(&cmd.invisible) {
         anyhow::bail!("--invisible: {} is not in [0, 1]", cmd.invisible);
     }
@@ -339,7 +341,7 @@ pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
         &model,
         (cmd.mode, cmd.samples),
         &settings,
-        field_gpu(&cmd.field_backend)?.as_ref(),
+        field_gpu(&cmd.backend)?.as_ref(),
         || bar.inc(1),
     )?;
     bar.finish_and_clear();
@@ -390,5 +392,34 @@ pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
         "\nBest as a config file:\n[nav]\nturn_gain = {:.3}\n[nav.field]\ntau = {:.4}\nh = {:.3}\ninteraction = {{ type = \"amari\", excite = 1.0, inhibit = {:.3}, width = 3 }}\n[nav.stimulus]\nc_o = {:.3}\nsigma = {:.3}\ng_scale = {:.3}",
         best.turn_gain, best.tau, best.h, best.inhibit, best.c_o, best.sigma, best.g_scale
     );
+    Ok(ExitCode::SUCCESS)
+}
+
+#[derive(Args)]
+pub struct NavReplayCmd {
+    /// CARMEN log (.log or .log.gz).
+    log: PathBuf,
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Print {"scans", "free_fraction", "mean_abs_deviation_deg"} as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn nav_replay(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
+    let cfg = cmd.config.settings()?.replay;
+    let scans = steernav::nav::carmen::read_log(&cmd.log)?;
+    let r = steernav::nav::replay::replay(&scans, &cfg)?;
+    if cmd.json {
+        println!("{}", serde_json::to_string(&r)?);
+    } else {
+        println!(
+            "{}: {} scans with motion; chosen heading free on {:.1}%; mean |deviation| from the real motion {:.1}°",
+            cmd.log.display(),
+            r.scans,
+            100.0 * r.free_fraction,
+            r.mean_abs_deviation_deg
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }

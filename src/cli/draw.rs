@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use crate::error::{Error, Result};
-use crate::features::Keypoint;
-use crate::image::Frame;
+use steernav::error::{Error, Result};
+use steernav::features::Keypoint;
+use steernav::image::Frame;
 
 const PALETTE: [[u8; 3]; 6] = [
     [255, 64, 64],
@@ -82,5 +82,5 @@ pub fn write_png(path: &Path, frame: &Frame, keypoints: &[Keypoint], scales: &[f
         path: path.into(),
         source: std::io::Error::other(e.to_string()),
     })?;
-    crate::output::write_atomic(path, &bytes)
+    steernav::output::write_atomic(path, &bytes)
 }

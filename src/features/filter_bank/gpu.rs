@@ -6,8 +6,29 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::util::{bind, groups_2d, read_storage, storage, storage_init, uniform};
-use super::GpuContext;
+use crate::features::harris::gpu::HarrisPipelines;
+use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
+use crate::gpu::util::{bind, groups_2d, read_storage, storage, storage_init, uniform};
+use crate::gpu::GpuContext;
+
+/// The stage's WGSL source with its file name (the separable passes are Harris's).
+pub const SHADERS: [(&str, &str); 1] = [(
+    "filter_bank_steer.wgsl",
+    include_str!("../../../shaders/filter_bank_steer.wgsl"),
+)];
+
+struct SteerPipeline(wgpu::ComputePipeline);
+
+impl PipelineSet for SteerPipeline {
+    fn build(device: &wgpu::Device) -> Self {
+        let (name, source) = SHADERS[0];
+        Self(compute_pipeline(
+            device,
+            &shader_module(device, name, source),
+            "main",
+        ))
+    }
+}
 use crate::error::Result;
 use crate::features::filter_bank::steering_table;
 use crate::features::steerable::basis_filters;
@@ -33,7 +54,8 @@ pub fn steered_images(
     height: u32,
 ) -> Result<Vec<Vec<f32>>> {
     let device = &ctx.device;
-    let pipes = ctx.pipelines();
+    let harris = ctx.pipelines::<HarrisPipelines>();
+    let steer = ctx.pipelines::<SteerPipeline>();
     let plane = width * height;
     let filters = basis_filters(config);
     let b = filters.len() as u32;
@@ -75,26 +97,26 @@ pub fn steered_images(
     );
     let g_cols = bind(
         device,
-        &pipes.convolve_columns,
+        &harris.convolve_columns,
         &[&dims, &col_jobs, &taps, &gray_buf, &tmp],
     );
     let g_rows = bind(
         device,
-        &pipes.convolve_rows,
+        &harris.convolve_rows,
         &[&dims, &row_jobs, &taps, &tmp, &basis],
     );
-    let g_steer = bind(device, &pipes.steer, &[&params, &coefs, &basis, &steered]);
+    let g_steer = bind(device, &steer.0, &[&params, &coefs, &basis, &steered]);
     let (gx, gy) = groups_2d(width, height);
     let mut enc = device.create_command_encoder(&Default::default());
     {
         let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipes.convolve_columns);
+        pass.set_pipeline(&harris.convolve_columns);
         pass.set_bind_group(0, &g_cols, &[]);
         pass.dispatch_workgroups(gx, gy, b);
-        pass.set_pipeline(&pipes.convolve_rows);
+        pass.set_pipeline(&harris.convolve_rows);
         pass.set_bind_group(0, &g_rows, &[]);
         pass.dispatch_workgroups(gx, gy, b);
-        pass.set_pipeline(&pipes.steer);
+        pass.set_pipeline(&steer.0);
         pass.set_bind_group(0, &g_steer, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
     }

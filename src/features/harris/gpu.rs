@@ -9,12 +9,56 @@ use std::sync::{Arc, Mutex};
 
 use bytemuck::{Pod, Zeroable};
 
-use super::util::{bind, groups_2d, read_staging, staging, storage, storage_init, uniform};
-use super::GpuContext;
 use crate::error::{Error, Result};
 use crate::features::harris::ResponseStack;
-use crate::features::steerable::{HarrisPlan, Kernel1d};
+use crate::features::{harris::HarrisPlan, steerable::Kernel1d};
 use crate::features::{raised_threshold, sort_candidates, Candidate};
+use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
+use crate::gpu::util::{bind, groups_2d, read_staging, staging, storage, storage_init, uniform};
+use crate::gpu::GpuContext;
+
+/// The stage's WGSL sources with their file names.
+pub const SHADERS: [(&str, &str); 4] = [
+    (
+        "harris_convolve.wgsl",
+        include_str!("../../../shaders/harris_convolve.wgsl"),
+    ),
+    (
+        "harris_products.wgsl",
+        include_str!("../../../shaders/harris_products.wgsl"),
+    ),
+    (
+        "harris_response.wgsl",
+        include_str!("../../../shaders/harris_response.wgsl"),
+    ),
+    (
+        "harris_nms.wgsl",
+        include_str!("../../../shaders/harris_nms.wgsl"),
+    ),
+];
+
+/// The Harris stage's pipelines (the filter bank reuses the convolution).
+pub(crate) struct HarrisPipelines {
+    pub(crate) convolve_columns: wgpu::ComputePipeline,
+    pub(crate) convolve_rows: wgpu::ComputePipeline,
+    products: wgpu::ComputePipeline,
+    response: wgpu::ComputePipeline,
+    nms: wgpu::ComputePipeline,
+}
+
+impl PipelineSet for HarrisPipelines {
+    fn build(device: &wgpu::Device) -> Self {
+        let [convolve, products, response, nms] =
+            SHADERS.map(|(name, source)| shader_module(device, name, source));
+        Self {
+            convolve_columns: compute_pipeline(device, &convolve, "columns"),
+            convolve_rows: compute_pipeline(device, &convolve, "rows"),
+            products: compute_pipeline(device, &products, "main"),
+            response: compute_pipeline(device, &response, "main"),
+            nms: compute_pipeline(device, &nms, "main"),
+        }
+    }
+}
 
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -279,7 +323,7 @@ impl GpuHarris {
 
     fn allocate(&self, width: u32, height: u32) -> FrameResources {
         let device = &self.ctx.device;
-        let pipes = self.ctx.pipelines();
+        let pipes = self.ctx.pipelines::<HarrisPipelines>();
         let plan = &self.plan;
         let plane = width as u64 * height as u64;
         let count = plan.derivative_count();
@@ -516,7 +560,7 @@ impl GpuHarris {
         last: usize,
         derivatives_only: bool,
     ) {
-        let pipes = self.ctx.pipelines();
+        let pipes = self.ctx.pipelines::<HarrisPipelines>();
         let count = self.plan.derivative_count() as u32;
         let products = self.plan.products.len() as u32;
         for (s, g) in f.scales.iter().enumerate().take(last + 1) {
@@ -571,7 +615,7 @@ impl GpuHarris {
     }
 
     fn encode_nms(&self, enc: &mut wgpu::CommandEncoder, f: &FrameResources) {
-        let pipes = self.ctx.pipelines();
+        let pipes = self.ctx.pipelines::<HarrisPipelines>();
         enc.clear_buffer(&f.counter, 0, None);
         for (s, g) in f.scales.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -689,7 +733,8 @@ impl GpuHarris {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.encode_responses(&mut enc, f, s, true);
         self.ctx.queue.submit([enc.finish()]);
-        let all = super::util::read_storage(&self.ctx.device, &self.ctx.queue, &f.derivatives)?;
+        let all =
+            crate::gpu::util::read_storage(&self.ctx.device, &self.ctx.queue, &f.derivatives)?;
         let (gw, gh) = self.plan.scales[s].grid(width as usize, height as usize);
         Ok(all
             .chunks(gw * gh)
@@ -710,7 +755,7 @@ impl GpuHarris {
         let responses = f
             .responses
             .iter()
-            .map(|b| super::util::read_storage(&self.ctx.device, &self.ctx.queue, b))
+            .map(|b| crate::gpu::util::read_storage(&self.ctx.device, &self.ctx.queue, b))
             .collect::<Result<Vec<_>>>()?;
         Ok(ResponseStack {
             responses,

@@ -1,0 +1,158 @@
+//! Arguments shared by several commands, so that each flag name keeps one meaning everywhere:
+//! `--backend` is where the heavy work runs, `--config` the one settings file (tables
+//! `[detector]`, `[slam]`, `[gist]`, `[nav]`, `[replay]`, `[synthetic]`), `--out` a directory.
+
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::Args;
+use steernav::features::{BasisOrder, MergeMode};
+use steernav::settings::Settings;
+use steernav::{Backend, Detector, DetectorConfig};
+
+/// A clap parser for a library enum by the names it has in TOML and JSON (its `NAMES`), so
+/// the library needs no clap derive and `--help` still lists the choices.
+pub fn choice<T>(names: &'static [&'static str]) -> impl TypedValueParser<Value = T>
+where
+    T: FromStr + Clone + Send + Sync + 'static,
+{
+    PossibleValuesParser::new(names).map(|name| {
+        name.parse::<T>()
+            .unwrap_or_else(|_| unreachable!("every listed name parses"))
+    })
+}
+
+/// The settings file.
+#[derive(Args, Clone, Default)]
+pub struct ConfigArg {
+    /// Settings file (TOML) with one table per stage: [detector], [slam], [gist], [nav],
+    /// [replay], [synthetic]; each command reads its own tables, flags override them.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+}
+
+impl ConfigArg {
+    /// The file's settings, or the defaults without one.
+    pub fn settings(&self) -> anyhow::Result<Settings> {
+        Ok(Settings::load_or_default(self.config.as_deref())?)
+    }
+}
+
+/// The backend of the commands that run one.
+#[derive(Args, Clone)]
+pub struct BackendArg {
+    /// Where the heavy work runs: auto (a hardware GPU if there is one, else the CPU with a
+    /// warning), gpu (any adapter, software ones included), cpu.
+    #[arg(long, default_value = "auto", value_parser = choice::<Backend>(Backend::NAMES))]
+    pub backend: Backend,
+}
+
+/// The backend and the detector settings of every command that detects.
+#[derive(Args, Clone)]
+pub struct DetectorArgs {
+    #[command(flatten)]
+    pub backend: BackendArg,
+    /// Largest image accepted, in pixels; larger ones are refused from their header before
+    /// decoding.
+    #[arg(long, value_name = "N", default_value_t = steernav::image::DEFAULT_MAX_PIXELS)]
+    pub max_pixels: u64,
+    #[command(flatten)]
+    pub flags: DetectorFlags,
+    #[command(flatten)]
+    pub config: ConfigArg,
+}
+
+impl DetectorArgs {
+    /// The settings file's [detector] table (or the defaults) under the flags.
+    pub fn config(&self) -> anyhow::Result<DetectorConfig> {
+        self.flags.apply(self.config.settings()?.detector)
+    }
+
+    /// The detector this command asked for.
+    pub fn detector(&self) -> anyhow::Result<Detector> {
+        Ok(Detector::new(&self.config()?, self.backend.backend)?)
+    }
+
+    /// The detector with `base` in place of the library default when the settings file has
+    /// no [detector] table, the flags over either.
+    pub fn detector_from(&self, base: DetectorConfig) -> anyhow::Result<Detector> {
+        let settings = self.config.settings()?;
+        let config = if settings.has("detector") {
+            settings.detector
+        } else {
+            base
+        };
+        Ok(Detector::new(
+            &self.flags.apply(config)?,
+            self.backend.backend,
+        )?)
+    }
+}
+
+/// Detector flags that override the settings file.
+#[derive(Args, Clone)]
+pub struct DetectorFlags {
+    /// Number of steered orientations N, spread over [0°, 180°) [default: 12].
+    #[arg(long, value_name = "N")]
+    pub orientations: Option<usize>,
+    /// Number of detection scales S (σ_D = 1.0 · 1.4^s) [default: 5].
+    #[arg(long, value_name = "S")]
+    pub scales: Option<usize>,
+    /// Keep at most K keypoints, the strongest [default: 500].
+    #[arg(long, value_name = "K")]
+    pub max_keypoints: Option<usize>,
+    /// Order of the steered Gaussian-derivative basis [default: second].
+    #[arg(long, value_parser = choice::<BasisOrder>(BasisOrder::NAMES))]
+    pub basis: Option<BasisOrder>,
+    /// How detections of all orientations and scales are merged [default: covariant].
+    #[arg(long, value_parser = choice::<MergeMode>(MergeMode::NAMES))]
+    pub merge: Option<MergeMode>,
+    /// Minimum scale-normalised Harris response of a candidate [default: 1e-8].
+    #[arg(long, value_name = "R")]
+    pub threshold: Option<f32>,
+}
+
+impl DetectorFlags {
+    /// `cfg` with the flags given applied, validated.
+    pub fn apply(&self, mut cfg: DetectorConfig) -> anyhow::Result<DetectorConfig> {
+        if let Some(v) = self.orientations {
+            cfg.orientations = v;
+        }
+        if let Some(v) = self.scales {
+            cfg.scales = v;
+        }
+        if let Some(v) = self.max_keypoints {
+            cfg.max_keypoints = v;
+        }
+        if let Some(v) = self.basis {
+            cfg.basis = v;
+        }
+        if let Some(v) = self.merge {
+            cfg.merge = v;
+        }
+        if let Some(v) = self.threshold {
+            cfg.threshold = v;
+        }
+        cfg.validate()?;
+        Ok(cfg)
+    }
+}
+
+/// The file stem of a path, for output names.
+pub fn stem(path: &std::path::Path) -> String {
+    path.file_stem()
+        .map_or_else(|| "image".into(), |s| s.to_string_lossy().into_owned())
+}
+
+/// A progress bar on stderr for `len` steps of `unit`.
+pub fn progress(len: usize, unit: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {unit}  {{per_sec}}  ETA {{eta}}  {{msg}}"
+        ))
+        .expect("valid template"),
+    );
+    bar
+}

@@ -1,0 +1,158 @@
+//! The `steernav` command line: one file per command, over the library's public API. Library
+//! warnings arrive through `log` and are printed here, on stderr.
+
+/// `println!` for the commands: a closed or full stdout becomes an error the command returns
+/// (see [`StdoutFailed`]) instead of a panic. Shadows the std macro in this crate.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($arg)*).map_err(crate::StdoutFailed)?;
+    }};
+}
+
+/// `print!` with the same handling as [`println!`].
+macro_rules! print {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($arg)*).map_err(crate::StdoutFailed)?;
+    }};
+}
+
+mod args;
+mod batch;
+mod bench;
+mod detect;
+mod draw;
+mod eval;
+mod gist;
+mod info;
+mod nav;
+mod slam;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// GPU-accelerated rotation-invariant keypoints, monocular EKF SLAM and dynamic-neural-field
+/// navigation.
+#[derive(Parser)]
+#[command(name = "steernav", version, about, long_about = None)]
+struct Cli {
+    /// Print the library's informational messages too, not only its warnings.
+    #[arg(long, short, global = true)]
+    verbose: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Detect keypoints on one or more images; JSON (or CSV) on stdout or one file per image.
+    Detect(detect::DetectCmd),
+    /// Detect on every image under a directory (recursive), one JSON per image + summary.csv.
+    Batch(batch::BatchCmd),
+    /// Judge detectors by repeatability (eq 11) and recall (eq 12): rotation sweeps and
+    /// Oxford-layout homography sequences, steernav beside OpenCV's classic detectors.
+    #[command(subcommand)]
+    Eval(eval::EvalKind),
+    /// Time the stages of detect (or the nav or slam suite) on the CPU and the GPU.
+    Bench(bench::BenchCmd),
+    /// GIST descriptors (eqs 38–41) of images: one JSON object per line, {"image", "gist"}.
+    Gist(gist::GistCmd),
+    /// Drive the neural field with every scan of a CARMEN log (FLASER lines, gzipped or not):
+    /// fraction of scans whose chosen heading is free, and its deviation from the real motion.
+    NavReplay(nav::NavReplayCmd),
+    /// Monocular EKF SLAM with inverse-depth landmarks on an image sequence: TUM trajectory,
+    /// map with covariances, figures, and ATE when ground truth is present.
+    Slam(Box<slam::SlamCmd>),
+    /// ATE after Sim(3) alignment and RPE of a TUM trajectory against ground truth.
+    SlamEval(slam::SlamEvalCmd),
+    /// Render a synthetic sequence with exact ground truth (TUM RGB-D layout + calib.toml).
+    SlamSynth(slam::SlamSynthCmd),
+    /// One navigation episode in the 2D simulator (LIDAR alone or fused with the camera's
+    /// GIST), with a figure of the trajectory and the field activity.
+    Nav(nav::NavCmd),
+    /// Random worlds driven with the LIDAR alone and with fusion: success, collisions, path
+    /// length, time to goal and position error, on worlds with and without LIDAR-invisible
+    /// obstacles.
+    NavEval(nav::NavEvalCmd),
+    /// Random search over the field's and the stimuli's parameters, every candidate on the
+    /// same random worlds; prints the best as a config file.
+    NavSweep(nav::NavSweepCmd),
+    /// Print the GPU adapter, backend, driver and the limits that matter.
+    Info,
+}
+
+/// Prints the library's `log` records on stderr as `warning: …` lines.
+struct StderrLog {
+    verbose: bool,
+}
+
+impl log::Log for StderrLog {
+    fn enabled(&self, metadata: &log::Metadata) -> bool {
+        metadata.level() <= log::Level::Warn || self.verbose && metadata.level() <= log::Level::Info
+    }
+
+    fn log(&self, record: &log::Record) {
+        if self.enabled(record.metadata()) {
+            let level = match record.level() {
+                log::Level::Error => "error",
+                log::Level::Warn => "warning",
+                _ => "info",
+            };
+            eprintln!("{level}: {}", record.args());
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let logger = Box::leak(Box::new(StderrLog {
+        verbose: cli.verbose,
+    }));
+    if log::set_logger(logger).is_ok() {
+        log::set_max_level(if cli.verbose {
+            log::LevelFilter::Info
+        } else {
+            log::LevelFilter::Warn
+        });
+    }
+    let result = match cli.command {
+        Command::Detect(cmd) => detect::detect(cmd),
+        Command::Batch(cmd) => batch::run_batch(cmd),
+        Command::Eval(eval::EvalKind::Rotation(cmd)) => eval::eval_rotation(cmd),
+        Command::Eval(eval::EvalKind::Homography(cmd)) => eval::eval_homography(cmd),
+        Command::Bench(cmd) => bench::bench(cmd),
+        Command::NavReplay(cmd) => nav::nav_replay(cmd),
+        Command::Gist(cmd) => gist::gist(cmd),
+        Command::Slam(cmd) => slam::slam(*cmd),
+        Command::SlamEval(cmd) => slam::slam_eval(cmd),
+        Command::SlamSynth(cmd) => slam::slam_synth(cmd),
+        Command::Nav(cmd) => nav::nav(cmd),
+        Command::NavEval(cmd) => nav::nav_eval(cmd),
+        Command::NavSweep(cmd) => nav::nav_sweep(cmd),
+        Command::Info => info::info(),
+    };
+    // Whatever was printed must reach stdout before the exit code says it did.
+    let flushed = std::io::Write::flush(&mut std::io::stdout()).map_err(StdoutFailed);
+    match result.and_then(|code| flushed.map(|()| code).map_err(Into::into)) {
+        Ok(code) => code,
+        Err(e) => match e.downcast_ref::<StdoutFailed>() {
+            // A reader that went away (`| head`) ends the program quietly, as Unix tools do.
+            Some(StdoutFailed(io)) if io.kind() == std::io::ErrorKind::BrokenPipe => {
+                ExitCode::from(141)
+            }
+            _ => {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
+    }
+}
+
+/// Writing to stdout failed: closed by the reader or out of space.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write to stdout: {0}")]
+struct StdoutFailed(std::io::Error);
