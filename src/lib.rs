@@ -1,8 +1,13 @@
 //! # steernav
 //!
-//! GPU-accelerated perception for mobile robots, after the paper in `shared/paper.txt`:
-//! rotation-invariant keypoints from a steerable filter bank and a multiscale Harris detector
-//! (sections 2.2–2.3), with a CPU reference for every GPU stage.
+//! GPU-accelerated perception and navigation for mobile robots, after the paper *Accurate
+//! Robot Navigation Using Visual Invariant Features and Dynamic Neural Fields*:
+//! rotation-invariant keypoints ([`features`], eqs 3–10), monocular EKF SLAM ([`slam`],
+//! eqs 13–27), a dynamic neural field driven by a LIDAR and the camera's GIST ([`nav`],
+//! eqs 28–45), and their evaluation ([`eval`], eqs 11–12). Every GPU stage has a CPU twin.
+//!
+//! The library never prints: warnings and fallbacks go through `log`, errors are [`Error`].
+//! With `default-features = false` it builds without the CLI's crates.
 //!
 //! ```no_run
 //! use steernav::{Backend, Detector, DetectorConfig, Frame};

@@ -1,4 +1,4 @@
-//! Machine-readable outputs: the keypoint JSON of DESIGN.md, a CSV form, atomic file writes.
+//! Machine-readable outputs: the keypoint JSON of the README, a CSV form, atomic file writes.
 
 use std::io::Write;
 use std::path::Path;
@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::features::Keypoint;
 
-/// The keypoints of one image, serialised exactly as the keypoint JSON of DESIGN.md.
+/// The keypoints of one image, serialised exactly as the keypoint JSON of the README.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ImageKeypoints {
     /// The image path as given.

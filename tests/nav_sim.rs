@@ -224,6 +224,7 @@ fn lockstep_batches_match_single_episodes_on_cpu_and_gpu() {
                     k as u64,
                     false,
                 )
+                .unwrap()
             })
             .collect()
     }

@@ -91,6 +91,9 @@ pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
         if ![x, y, theta, time].iter().all(|v| v.is_finite()) {
             return Err(bad("non-finite pose or time".into()));
         }
+        if let Some(i) = ranges.iter().position(|r| r.is_nan()) {
+            return Err(bad(format!("range {} of {n} is NaN", i + 1)));
+        }
         let bearings = (0..n)
             .map(|i| {
                 (-std::f64::consts::FRAC_PI_2 + i as f64 * std::f64::consts::PI / (n - 1) as f64)

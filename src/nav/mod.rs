@@ -3,6 +3,7 @@
 //! the experiments come next.
 
 pub mod carmen;
+pub mod controller;
 pub mod dnf;
 pub mod gist;
 pub mod replay;

@@ -10,8 +10,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::carmen::Scan;
-use super::dnf::{FieldBatch, FieldConfig};
-use super::stimulus::{angle_diff, combined, obstacle_stimulus, target_stimulus, StimulusConfig};
+use super::controller::{Controller, LaserScan};
+use super::dnf::FieldConfig;
+use super::sim::episode::{Mode, NavConfig};
+use super::stimulus::{angle_diff, StimulusConfig};
 use crate::error::{Error, Result};
 
 /// Settings of a replay.
@@ -160,8 +162,19 @@ pub fn is_free(scan: &Scan, heading: f32, safety: f32, halfwidth: f32) -> bool {
 /// Replays a log.
 pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
     cfg.validate()?;
-    let n = cfg.field.neurons;
-    let mut field = FieldBatch::new(cfg.field.clone(), 1)?;
+    // The robot-frame controller of a robot at the origin facing +x: the log's own poses
+    // only give the target, so the ring is the scanner's frame.
+    let mut controller = Controller::new(
+        NavConfig {
+            field: cfg.field.clone(),
+            stimulus: cfg.stimulus.clone(),
+            field_steps: cfg.steps_per_scan,
+            rear_inhibition: cfg.rear_inhibition,
+            ..NavConfig::default()
+        },
+        Mode::Laser,
+        Default::default(),
+    )?;
     let (mut evaluated, mut free, mut deviation) = (0usize, 0usize, 0.0f64);
     let halfwidth = cfg.free_halfwidth_deg.to_radians();
     let offset = frame_offset(scans, cfg);
@@ -175,27 +188,17 @@ pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
             continue;
         }
         let target = angle_diff((dy.atan2(dx) - scan.theta - offset) as f32, 0.0);
-        // Beams as point obstacles, weighted by their angular density (see the module docs).
-        let spacing = std::f32::consts::PI / (scan.ranges.len().max(2) - 1) as f32;
-        let beam_cfg = cfg.stimulus.per_beam(spacing);
-        let valid: Vec<(f32, f32)> = scan
-            .ranges
-            .iter()
-            .zip(&scan.bearings)
-            .filter(|(r, _)| **r > 0.0)
-            .map(|(r, b)| (*r, *b))
-            .collect();
-        let (ranges, bearings): (Vec<f32>, Vec<f32>) = valid.into_iter().unzip();
-        let obstacle = obstacle_stimulus(&ranges, &bearings, &beam_cfg, n)?;
-        let mut s = combined(&target_stimulus(target, &cfg.stimulus, n), &obstacle);
-        for (i, si) in s.iter_mut().enumerate() {
-            let h = angle_diff(i as f32 * std::f32::consts::TAU / n as f32, 0.0);
-            if h.abs() > std::f32::consts::FRAC_PI_2 {
-                *si -= cfg.rear_inhibition;
-            }
-        }
-        field.step(&s, cfg.steps_per_scan)?;
-        let heading = angle_diff(field.peak(0).1, 0.0);
+        // Every reading is an obstacle (the scanner's no-return value too, far and weak), each
+        // weighted by the beams' angular density (see the module docs).
+        let laser = LaserScan {
+            ranges: scan.ranges.clone(),
+            bearings: scan.bearings.clone(),
+            angle_increment: std::f32::consts::PI / (scan.ranges.len().max(2) - 1) as f32,
+            range_max: f32::INFINITY,
+        };
+        let heading = controller
+            .step_towards(&laser, [0.0; 3], target, 1.0, None)?
+            .heading;
         evaluated += 1;
         free += is_free(scan, heading, cfg.safety, halfwidth) as usize;
         deviation += angle_diff(heading, target).abs().to_degrees() as f64;

@@ -2,7 +2,7 @@
 //! filter (eq 20 with distortion applied to the normalised coordinates), and the calibrated
 //! stereo pair of eqs 1–2.
 //!
-//! Camera frame: x right, y down, z forward (the DESIGN.md pixel convention). Eq 2 writes
+//! Camera frame: x right, y down, z forward (the pixel convention of docs/DESIGN.md). Eq 2 writes
 //! u = u₀ − f·x/z for a camera frame whose x and y axes point left and up; with x right and
 //! y down the signs are +, which is what is implemented.
 

@@ -1,20 +1,18 @@
-//! One navigation episode in the simulator: every control period the LIDAR scans, the camera
-//! renders, the stimuli of eqs 32–34 (plus the GIST stimulus in fusion mode) drive the field
+//! One navigation episode in the simulator, driving the [`Controller`] as a robot would: every
+//! control period the LIDAR scans, the camera renders, the stimuli of eqs 32–34 (plus the GIST stimulus in fusion mode) drive the field
 //! (eqs 28–31) for a few Euler steps, φ_F (eq 29) and the velocity laws (eqs 35–37) command a
 //! unicycle, and the motion is integrated in small sub-steps with an exact collision test.
 
 use serde::{Deserialize, Serialize};
 
 use super::sensors::{CameraConfig, LidarConfig};
-use super::visual::{sector_features, visual_stimulus, VisualConfig, VisualObstacleModel};
+use super::visual::{VisualConfig, VisualObstacleModel};
 use super::world::World;
 use crate::error::{Error, Result};
+use crate::nav::controller::{Command, Controller, LaserScan};
 use crate::nav::dnf::{FieldBatch, FieldConfig};
 use crate::nav::gist::GistEngine;
-use crate::nav::stimulus::{
-    angle_diff, combined, obstacle_stimulus, obstacle_velocity, target_stimulus, target_velocity,
-    velocity, StimulusConfig,
-};
+use crate::nav::stimulus::{angle_diff, StimulusConfig};
 use crate::synth::Rng;
 
 /// Which sensors drive the field.
@@ -146,20 +144,17 @@ pub struct Episode {
 }
 
 /// One episode advanced step by step, so that many episodes can share one batched field:
-/// [`Robot::sense`] gives the field's stimulus, the caller steps the field (alone or batched,
-/// CPU or GPU), and [`Robot::act`] reads φ_F and moves.
+/// [`Robot::sense`] scans (and looks) and asks its [`Controller`] for the field's stimulus, the
+/// caller steps the field (alone or batched, CPU or GPU), and [`Robot::act`] asks the
+/// controller for a command from φ_F and moves.
 pub struct Robot<'a> {
     world: &'a World,
     cfg: &'a NavConfig,
     mode: Mode,
-    model: VisualObstacleModel,
+    controller: Controller,
     rng: Rng,
     pose: [f32; 3],
-    beam_cfg: StimulusConfig,
-    bearings: Vec<f32>,
-    sectors: Vec<(f32, f32)>,
-    near: f32,
-    ranges: Vec<f32>,
+    scan: LaserScan,
     trajectory: Vec<[f32; 3]>,
     fields: Vec<Vec<f32>>,
     record_field: bool,
@@ -178,48 +173,36 @@ impl<'a> Robot<'a> {
         model: VisualObstacleModel,
         seed: u64,
         record_field: bool,
-    ) -> Self {
+    ) -> Result<Self> {
         let pose = [world.start[0], world.start[1], world.start[2].to_radians()];
-        let spacing = cfg.lidar.fov_deg.to_radians() / (cfg.lidar.beams - 1) as f32;
-        let blocks = cfg.visual.gist.blocks;
-        let sector_width = cfg.camera.fov_deg.to_radians() / blocks as f32;
-        let sectors = (0..blocks)
-            .map(|c| {
-                let centre = cfg
-                    .camera
-                    .column_bearing((c as f32 + 0.5) * cfg.camera.width as f32 / blocks as f32);
-                (centre, 0.5 * sector_width)
-            })
-            .collect();
-        Self {
+        let lidar = &cfg.lidar;
+        let scan = LaserScan {
+            ranges: Vec::new(),
+            bearings: (0..lidar.beams).map(|i| lidar.bearing(i)).collect(),
+            angle_increment: lidar.fov_deg.to_radians() / (lidar.beams - 1) as f32,
+            range_max: lidar.max_range,
+        };
+        Ok(Self {
             world,
             cfg,
             mode,
-            model,
+            controller: Controller::new(cfg.clone(), mode, model)?,
             rng: Rng(seed),
             pose,
-            beam_cfg: cfg.stimulus.per_beam(spacing),
-            bearings: (0..cfg.lidar.beams).map(|i| cfg.lidar.bearing(i)).collect(),
-            sectors,
-            near: cfg.camera.near_distance(1.0 / blocks as f32),
-            ranges: Vec::new(),
+            scan,
             trajectory: vec![pose],
             fields: Vec::new(),
             record_field,
             time: 0.0,
             length: 0.0,
             outcome: None,
-        }
+        })
     }
 
     /// Whether the episode has ended (goal, collision or time limit).
     pub fn done(&mut self) -> bool {
         if self.outcome.is_none() {
-            let to_goal = [
-                self.world.goal[0] - self.pose[0],
-                self.world.goal[1] - self.pose[1],
-            ];
-            if to_goal[0].hypot(to_goal[1]) < self.cfg.goal_tolerance {
+            if self.distance_to_goal() < self.cfg.goal_tolerance {
                 self.outcome = Some(Outcome::Reached);
             } else if self.time >= self.cfg.max_time {
                 self.outcome = Some(Outcome::Timeout);
@@ -228,99 +211,37 @@ impl<'a> Robot<'a> {
         self.outcome.is_some()
     }
 
-    /// Scans (and in fusion mode looks, and learns), and returns the field's stimulus S
-    /// (eq 34, plus the GIST stimulus), on the allocentric ring.
-    pub fn sense(&mut self, gist: Option<&GistEngine>) -> Result<Vec<f32>> {
-        let (cfg, world, pose) = (self.cfg, self.world, self.pose);
-        let n = cfg.field.neurons;
-        self.ranges = cfg.lidar.scan(world, pose, &mut self.rng);
-        let (near_ranges, near_bearings): (Vec<f32>, Vec<f32>) = self
-            .ranges
-            .iter()
-            .zip(&self.bearings)
-            .filter(|(r, _)| **r < cfg.lidar.max_range)
-            .map(|(r, b)| (*r, *b))
-            .unzip();
-        // The field is allocentric — neuron i is the world heading 2πi/N — so a peak stays put
-        // while the robot turns toward it; sensor bearings are rotated into the world frame.
-        let world_bearings: Vec<f32> = near_bearings.iter().map(|b| b + pose[2]).collect();
-        let mut obstacle = obstacle_stimulus(&near_ranges, &world_bearings, &self.beam_cfg, n)?;
-        if self.mode == Mode::Fusion {
-            let engine =
-                gist.ok_or_else(|| Error::config("mode", "fusion", "needs a GIST engine"))?;
-            let view = cfg.camera.render(world, pose);
-            let blocks = cfg.visual.gist.blocks;
-            let features = sector_features(&engine.describe(&view)?, blocks);
-            let likelihood = self.model.predict(&features, &cfg.visual);
-            let world_sectors: Vec<(f32, f32)> = self
-                .sectors
-                .iter()
-                .map(|&(c, h)| (c + pose[2], h))
-                .collect();
-            let visual = visual_stimulus(&likelihood, &world_sectors, cfg.visual.gain, n);
-            // Fusion by the larger inhibition, not the sum: where the LIDAR already sees an
-            // obstacle the camera adds nothing, so fusion cannot make the robot shy of what
-            // LIDAR alone handles.
-            for (o, v) in obstacle.iter_mut().zip(&visual) {
-                *o = o.max(*v);
-            }
-            // The LIDAR teaches: is a beam inside the sector closer than the bottom row's reach?
-            let blocked: Vec<bool> = self
-                .sectors
-                .iter()
-                .map(|&(c, half)| {
-                    self.ranges
-                        .iter()
-                        .zip(&self.bearings)
-                        .any(|(r, b)| angle_diff(*b, c).abs() <= half && *r < self.near)
-                })
-                .collect();
-            self.model
-                .learn(&features, &blocked, cfg.visual.learning_rate);
-        }
-        let target = (world.goal[1] - pose[1]).atan2(world.goal[0] - pose[0]);
-        let mut s = combined(&target_stimulus(target, &cfg.stimulus, n), &obstacle);
-        for (i, si) in s.iter_mut().enumerate() {
-            let h = angle_diff(i as f32 * std::f32::consts::TAU / n as f32, pose[2]);
-            if h.abs() > std::f32::consts::FRAC_PI_2 {
-                *si -= cfg.rear_inhibition;
-            }
-        }
-        Ok(s)
+    fn distance_to_goal(&self) -> f32 {
+        (self.world.goal[0] - self.pose[0]).hypot(self.world.goal[1] - self.pose[1])
     }
 
-    /// Reads φ_F (eq 29) from the field's activations, sets the velocities (eqs 35–37) and
+    /// Scans (and in fusion mode looks), and returns the controller's stimulus for the field.
+    pub fn sense(&mut self, gist: Option<&GistEngine>) -> Result<Vec<f32>> {
+        let (cfg, world, pose) = (self.cfg, self.world, self.pose);
+        self.scan.ranges = cfg.lidar.scan(world, pose, &mut self.rng);
+        let view = match (self.mode, gist) {
+            (Mode::Fusion, Some(engine)) => Some((cfg.camera.render(world, pose), engine)),
+            _ => None,
+        };
+        let target = (world.goal[1] - pose[1]).atan2(world.goal[0] - pose[0]);
+        self.controller.stimulus(
+            &self.scan,
+            pose,
+            target,
+            view.as_ref().map(|(frame, engine)| (frame, *engine)),
+        )
+    }
+
+    /// Asks the controller for a command from the field's activations (eqs 29, 35–37) and
     /// integrates the unicycle over one control period with an exact collision test.
     pub fn act(&mut self, field: &[f32]) {
         let cfg = self.cfg;
-        let n = field.len();
-        let peak_index = (0..n).fold(0, |best, i| if field[i] > field[best] { i } else { best });
-        // φ_F relative to where the robot points.
-        let heading = angle_diff(crate::nav::dnf::heading(peak_index, n), self.pose[2]);
         if self.record_field {
             self.fields.push(field.to_vec());
         }
-        let to_goal = [
-            self.world.goal[0] - self.pose[0],
-            self.world.goal[1] - self.pose[1],
-        ];
-        let (nearest, nearest_bearing) =
-            self.ranges
-                .iter()
-                .zip(&self.bearings)
-                .fold((f32::INFINITY, 0.0), |best, (r, b)| {
-                    if *r < best.0 {
-                        (*r, *b)
-                    } else {
-                        best
-                    }
-                });
-        let v = velocity(
-            target_velocity(to_goal[0].hypot(to_goal[1]), &cfg.stimulus),
-            obstacle_velocity(heading, nearest, nearest_bearing, &cfg.stimulus),
-            field[peak_index],
-        ) * heading.cos().max(0.0);
-        let omega = (cfg.turn_gain * heading).clamp(-cfg.max_turn_rate, cfg.max_turn_rate);
+        let Command { v, omega, .. } =
+            self.controller
+                .command(field, &self.scan, self.pose, self.distance_to_goal());
         let substeps = (cfg.control_period / cfg.substep).ceil().max(1.0) as usize;
         let h = cfg.control_period / substeps as f32;
         let pose = &mut self.pose;
@@ -349,7 +270,7 @@ impl<'a> Robot<'a> {
             trajectory: self.trajectory,
             field: self.fields,
         };
-        (episode, self.model)
+        (episode, self.controller.into_model())
     }
 }
 
@@ -366,7 +287,7 @@ pub fn run(
     record_field: bool,
 ) -> Result<Episode> {
     let mut field = FieldBatch::new(cfg.field.clone(), 1)?;
-    let mut robot = Robot::new(world, cfg, mode, std::mem::take(model), seed, record_field);
+    let mut robot = Robot::new(world, cfg, mode, std::mem::take(model), seed, record_field)?;
     while !robot.done() {
         let s = robot.sense(gist)?;
         field.step(&s, cfg.field_steps)?;

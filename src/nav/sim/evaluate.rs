@@ -158,7 +158,7 @@ pub fn run_worlds(
             let seed = settings.seed.wrapping_add(k as u64);
             Robot::new(w, cfg, mode, model.clone(), seed, false)
         })
-        .collect();
+        .collect::<Result<Vec<_>>>()?;
     let mut batch = fields(cfg, worlds.len(), gpu)?;
     run_lockstep(robots, &mut batch, Some(gist), progress)
 }
