@@ -47,3 +47,28 @@ fn gpu_gist_matches_the_cpu_reference_on_a_batch() {
     assert_eq!(radices(2 * 11), None);
     assert_eq!(GpuGist::new(ctx, config).unwrap().method(), GistMethod::Fft);
 }
+
+#[test]
+fn the_default_gist_agrees_on_both_backends() {
+    // The default configuration, as `steernav gist` and a robot use it, on a textured scene:
+    // the two backends must give the same descriptor (within 1e-3 of its largest value), so a
+    // map built on one matches descriptors computed on the other.
+    let Some(ctx) = common::gpu() else { return };
+    let config = GistConfig::default();
+    let frame = steernav::synth::textured_scene(400, 320, 12);
+    let cpu = GistEngine::new(config.clone())
+        .unwrap()
+        .describe(&frame)
+        .unwrap();
+    let gpu = GpuGist::new(ctx, config)
+        .unwrap()
+        .describe_batch(&[frame])
+        .unwrap();
+    let scale = cpu.iter().fold(0.0f32, |a, &b| a.max(b.abs()));
+    let worst = gpu[0]
+        .iter()
+        .zip(&cpu)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst <= 1e-3 * scale, "worst {worst} of {scale}");
+}

@@ -15,19 +15,20 @@ use serde::{Deserialize, Serialize};
 pub use config::{BasisOrder, DetectorConfig, MergeMode};
 pub use detector::{Backend, Detection, Detector, HarrisRun};
 
-/// One detection of the Harris stage: a local maximum of R at one scale and one orientation.
-/// The layout is shared with `shaders/nms.wgsl` (16 bytes).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct Candidate {
-    /// Sub-pixel column.
-    pub x: f32,
-    /// Sub-pixel row.
-    pub y: f32,
-    /// Scale-normalised Harris response (eq 8).
-    pub response: f32,
-    /// Scale index in the high 16 bits, orientation index in the low 16 bits.
-    pub packed: u32,
+crate::gpu::layout::gpu_struct! {
+    /// One detection of the Harris stage: a local maximum of R at one scale and one
+    /// orientation. The layout is shared with `shaders/harris_nms.wgsl` (16 bytes).
+    #[derive(PartialEq)]
+    pub struct Candidate as "Candidate" {
+        /// Sub-pixel column.
+        pub x: f32,
+        /// Sub-pixel row.
+        pub y: f32,
+        /// Scale-normalised Harris response (eq 8).
+        pub response: f32,
+        /// Scale index in the high 16 bits, orientation index in the low 16 bits.
+        pub packed: u32,
+    }
 }
 
 impl Candidate {

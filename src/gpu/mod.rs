@@ -1,7 +1,9 @@
-//! GPU plumbing: one shared context, pipelines compiled once, per-size buffer caches, and the
-//! drivers of the WGSL stages.
+//! GPU plumbing only: the context (steernav's own or the caller's device), per-stage pipeline
+//! caches, the layout of structs shared with WGSL, and buffer helpers. The stages' drivers
+//! live beside their CPU twins (`features::harris::gpu`, `nav::dnf::gpu`, `nav::gist::gpu`).
 
 pub mod context;
+pub mod layout;
 
 pub mod pipelines;
 pub mod util;

@@ -4,9 +4,8 @@
 
 use std::sync::Arc;
 
-use bytemuck::{Pod, Zeroable};
-
 use crate::features::harris::gpu::HarrisPipelines;
+use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
 use crate::gpu::util::{bind, groups_2d, read_storage, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
@@ -34,15 +33,17 @@ use crate::features::filter_bank::steering_table;
 use crate::features::steerable::basis_filters;
 use crate::features::DetectorConfig;
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct SteerParams {
-    width: u32,
-    height: u32,
-    plane: u32,
-    basis: u32,
-    orientations: u32,
-    pad: [u32; 3],
+gpu_struct! {
+    struct SteerParams as "Params" {
+        width: u32,
+        height: u32,
+        plane: u32,
+        basis: u32,
+        orientations: u32,
+        _pad0: u32,
+        _pad1: u32,
+        _pad2: u32,
+    }
 }
 
 /// The N steered images F(θ_n) computed on the GPU.
@@ -92,7 +93,9 @@ pub fn steered_images(
             plane,
             basis: b,
             orientations: n,
-            pad: [0; 3],
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         },
     );
     let g_cols = bind(
@@ -123,4 +126,14 @@ pub fn steered_images(
     ctx.queue.submit([enc.finish()]);
     let all = read_storage(device, &ctx.queue, &steered)?;
     Ok(all.chunks(plane as usize).map(<[f32]>::to_vec).collect())
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+
+    #[test]
+    fn shared_structs_match_the_wgsl_declarations() {
+        crate::gpu::layout::check::<SteerParams>(SHADERS[0].1);
+    }
 }

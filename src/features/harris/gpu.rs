@@ -7,12 +7,11 @@
 
 use std::sync::{Arc, Mutex};
 
-use bytemuck::{Pod, Zeroable};
-
 use crate::error::{Error, Result};
 use crate::features::harris::ResponseStack;
 use crate::features::{harris::HarrisPlan, steerable::Kernel1d};
 use crate::features::{raised_threshold, sort_candidates, Candidate};
+use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
 use crate::gpu::util::{bind, groups_2d, read_staging, staging, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
@@ -60,17 +59,17 @@ impl PipelineSet for HarrisPipelines {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Dims {
-    src_width: u32,
-    src_height: u32,
-    dst_width: u32,
-    dst_height: u32,
-    step: u32,
-    src_plane: u32,
-    dst_plane: u32,
-    pad: u32,
+gpu_struct! {
+    struct Dims as "Dims" {
+        src_width: u32,
+        src_height: u32,
+        dst_width: u32,
+        dst_height: u32,
+        step: u32,
+        src_plane: u32,
+        dst_plane: u32,
+        _pad: u32,
+    }
 }
 
 impl Dims {
@@ -89,68 +88,70 @@ impl Dims {
             step,
             src_plane: w * h,
             dst_plane: dw * dh,
-            pad: 0,
+            _pad: 0,
         }
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct ProductParams {
-    width: u32,
-    height: u32,
-    plane: u32,
-    count: u32,
+gpu_struct! {
+    struct ProductParams as "Params" {
+        width: u32,
+        height: u32,
+        plane: u32,
+        count: u32,
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Job {
-    src: u32,
-    dst: u32,
-    taps: u32,
-    radius: u32,
+gpu_struct! {
+    struct Job as "Job" {
+        src: u32,
+        dst: u32,
+        taps: u32,
+        radius: u32,
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct ResponseParams {
-    width: u32,
-    height: u32,
-    plane: u32,
-    products: u32,
-    orientations: u32,
-    k: f32,
-    pad: [u32; 2],
+gpu_struct! {
+    struct ResponseParams as "Params" {
+        width: u32,
+        height: u32,
+        plane: u32,
+        products: u32,
+        orientations: u32,
+        k: f32,
+        _pad0: u32,
+        _pad1: u32,
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct NmsParams {
-    width: u32,
-    height: u32,
-    plane: u32,
-    orientations: u32,
-    scale: u32,
-    has_prev: u32,
-    has_next: u32,
-    margin: u32,
-    step: u32,
-    prev_width: u32,
-    prev_height: u32,
-    prev_step: u32,
-    next_width: u32,
-    next_height: u32,
-    next_step: u32,
-    pad: u32,
+gpu_struct! {
+    struct NmsParams as "Params" {
+        width: u32,
+        height: u32,
+        plane: u32,
+        orientations: u32,
+        scale: u32,
+        has_prev: u32,
+        has_next: u32,
+        margin: u32,
+        step: u32,
+        prev_width: u32,
+        prev_height: u32,
+        prev_step: u32,
+        next_width: u32,
+        next_height: u32,
+        next_step: u32,
+        _pad: u32,
+    }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct NmsSettings {
-    threshold: f32,
-    capacity: u32,
-    pad: [u32; 2],
+gpu_struct! {
+    struct NmsSettings as "Settings" {
+        threshold: f32,
+        capacity: u32,
+        _pad0: u32,
+        _pad1: u32,
+    }
 }
 
 /// Offset and radius of one kernel in the taps buffer.
@@ -379,7 +380,8 @@ impl GpuHarris {
             &NmsSettings {
                 threshold: plan.config.threshold,
                 capacity: capacity as u32,
-                pad: [0; 2],
+                _pad0: 0,
+                _pad1: 0,
             },
         );
         let jobs = |label: &str, list: Vec<Job>| storage_init(device, label, &list);
@@ -459,7 +461,8 @@ impl GpuHarris {
                         products: products as u32,
                         orientations: n as u32,
                         k: plan.config.harris_k,
-                        pad: [0; 2],
+                        _pad0: 0,
+                        _pad1: 0,
                     },
                 );
                 let nms_params = uniform(
@@ -481,7 +484,7 @@ impl GpuHarris {
                         next_width: grids[ns].0,
                         next_height: grids[ns].1,
                         next_step: plan.scales[ns].step,
-                        pad: 0,
+                        _pad: 0,
                     },
                 );
                 let prev = &responses[s.saturating_sub(1)];
@@ -645,7 +648,8 @@ impl GpuHarris {
         let settings = NmsSettings {
             threshold,
             capacity: self.plan.config.candidate_capacity as u32,
-            pad: [0; 2],
+            _pad0: 0,
+            _pad1: 0,
         };
         self.ctx
             .queue
@@ -772,4 +776,22 @@ impl GpuHarris {
 fn read_count(device: &wgpu::Device, f: &FrameResources) -> Result<usize> {
     let raw = read_staging(device, &f.counter_staging, 4)?;
     Ok(u32::from_le_bytes([raw[0], raw[1], raw[2], raw[3]]) as usize)
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+    use crate::gpu::layout::check;
+
+    #[test]
+    fn shared_structs_match_the_wgsl_declarations() {
+        let [convolve, products, response, nms] = SHADERS.map(|(_, source)| source);
+        check::<Dims>(convolve);
+        check::<Job>(convolve);
+        check::<ProductParams>(products);
+        check::<ResponseParams>(response);
+        check::<NmsParams>(nms);
+        check::<NmsSettings>(nms);
+        check::<Candidate>(nms);
+    }
 }

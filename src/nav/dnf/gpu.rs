@@ -4,8 +4,7 @@
 
 use std::sync::Arc;
 
-use bytemuck::{Pod, Zeroable};
-
+use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
 use crate::gpu::util::{bind, read_storage, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
@@ -28,21 +27,21 @@ impl PipelineSet for DnfPipeline {
 use crate::error::{Error, Result};
 use crate::nav::dnf::{check_stimulus, Activation, FieldConfig, Interaction};
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    neurons: u32,
-    fields: u32,
-    steps: u32,
-    amari: u32,
-    width: u32,
-    sigmoid: u32,
-    beta: f32,
-    rate: f32,
-    h: f32,
-    excite: f32,
-    inhibit: f32,
-    groups_x: u32,
+gpu_struct! {
+    struct Params as "Params" {
+        neurons: u32,
+        fields: u32,
+        steps: u32,
+        amari: u32,
+        width: u32,
+        sigmoid: u32,
+        beta: f32,
+        rate: f32,
+        h: f32,
+        excite: f32,
+        inhibit: f32,
+        groups_x: u32,
+    }
 }
 
 /// Loop iterations one invocation may spend per dispatch (lavapipe's cap is 65,535).
@@ -187,5 +186,15 @@ impl GpuFieldBatch {
         let mut all = read_storage(&self.ctx.device, &self.ctx.queue, &self.u)?;
         all.truncate(self.fields * self.config.neurons);
         Ok(all)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+
+    #[test]
+    fn shared_structs_match_the_wgsl_declarations() {
+        crate::gpu::layout::check::<Params>(SHADERS[0].1);
     }
 }

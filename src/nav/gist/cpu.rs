@@ -32,10 +32,12 @@ pub struct GistConfig {
     /// Symmetric padding around the image before filtering (px). Default 32.
     pub boundary: usize,
     /// Invert each band-limited filter response on the coarsest grid that holds its band
-    /// (down to 1/8 of the size; by default the two coarsest scales, at 1/2 and 1/4). The
-    /// window averages then deviate from the full-resolution computation by up to 6% of the
-    /// largest value at the coarsest scale (measured; |r| has harmonics beyond the band), and
-    /// a descriptor costs half as much. Default true; false gives the exact reference.
+    /// (down to 1/8 of the size; the two coarsest scales, at 1/2 and 1/4). The window
+    /// averages then deviate from the full-resolution computation by up to 6% of the largest
+    /// value at the coarsest scale (measured; |r| has harmonics beyond the band), and a
+    /// 256² descriptor costs 12.4 ms instead of 16.4 ms on 2 cores. CPU only: the GPU always
+    /// computes the exact bank. Default false, so that both backends give the same
+    /// descriptor and a map built on one matches descriptors computed on the other.
     pub decimate: bool,
 }
 
@@ -48,7 +50,7 @@ impl Default for GistConfig {
             prefilter: true,
             prefilter_fc: 4.0,
             boundary: 32,
-            decimate: true,
+            decimate: false,
         }
     }
 }
@@ -499,12 +501,13 @@ mod tests {
 
     #[test]
     fn decimated_filtering_stays_within_six_percent_of_the_full_resolution() {
-        let fast = GistEngine::new(GistConfig::default()).unwrap();
-        let exact = GistEngine::new(GistConfig {
-            decimate: false,
+        let fast = GistEngine::new(GistConfig {
+            decimate: true,
             ..Default::default()
         })
         .unwrap();
+        let exact = GistEngine::new(GistConfig::default()).unwrap();
+        assert!(exact.bank.iter().all(|f| f.d == 1), "the default is exact");
         assert!(
             fast.bank.iter().any(|f| f.d > 1),
             "coarse scales are decimated"

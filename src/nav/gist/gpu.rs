@@ -9,9 +9,10 @@
 
 use std::sync::Arc;
 
-use bytemuck::{Pod, Zeroable};
+use bytemuck::Zeroable;
 
 use crate::error::{Error, Result};
+use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
 use crate::gpu::util::{bind_at, read_staging, staging, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
@@ -82,17 +83,17 @@ impl PipelineSet for GistFftPipelines {
     }
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    n: u32,
-    m: u32,
-    boundary: u32,
-    filters: u32,
-    blocks: u32,
-    images: u32,
-    inv_n2: f32,
-    _pad: u32,
+gpu_struct! {
+    struct Params as "Params" {
+        n: u32,
+        m: u32,
+        boundary: u32,
+        filters: u32,
+        blocks: u32,
+        images: u32,
+        inv_n2: f32,
+        _pad: u32,
+    }
 }
 
 /// How the GPU computes the transforms.
@@ -129,17 +130,17 @@ pub fn radices(n: usize) -> Option<Vec<u32>> {
     Some(out)
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Stage {
-    n: u32,
-    ns: u32,
-    radix: u32,
-    inverse: u32,
-    axis: u32,
-    planes: u32,
-    _p0: u32,
-    _p1: u32,
+gpu_struct! {
+    struct Stage as "Stage" {
+        n: u32,
+        ns: u32,
+        radix: u32,
+        inverse: u32,
+        axis: u32,
+        planes: u32,
+        _p0: u32,
+        _p1: u32,
+    }
 }
 
 /// FFT-method buffers for up to `capacity` images.
@@ -185,6 +186,12 @@ impl GpuGist {
     /// Uploads the filter bank and the twiddle table. `decimate` is ignored: the GPU computes
     /// the exact full-resolution responses. FFTs when the padded side allows, else direct.
     pub fn new(ctx: Arc<GpuContext>, config: GistConfig) -> Result<Self> {
+        if config.decimate {
+            log::warn!(
+                "GIST decimate = true is a CPU approximation; the GPU computes the exact bank, \
+                 so its descriptors differ from a decimating CPU's by up to 6%"
+            );
+        }
         let mut gist = Self::with_method(ctx, config, GistMethod::Fft)?;
         if radices(gist.n).is_none() {
             gist.method = GistMethod::Direct;
@@ -547,5 +554,19 @@ impl GpuGist {
             out.extend(data.chunks(per).map(|d| d.to_vec()));
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+    use crate::gpu::layout::{check, check_as};
+
+    #[test]
+    fn shared_structs_match_the_wgsl_declarations() {
+        check::<Params>(SHADERS[0].1);
+        // The FFT shader reads the same parameters under the name `Bank`.
+        check_as::<Params>(SHADERS[1].1, "Bank");
+        check::<Stage>(SHADERS[1].1);
     }
 }
