@@ -105,6 +105,12 @@ impl Frame {
         let decode_err = |reason: String| Error::Decode {
             path: path.to_path_buf(),
             reason,
+            source: None,
+        };
+        let image_err = |e: image::ImageError| Error::Decode {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+            source: Some(Box::new(e)),
         };
         let mut file = std::fs::File::open(path).map_err(io)?;
         let mut head = Vec::with_capacity(64);
@@ -114,12 +120,10 @@ impl Frame {
         }
         let format = image::guess_format(&head)
             .or_else(|_| image::ImageFormat::from_path(path))
-            .map_err(|e| decode_err(e.to_string()))?;
+            .map_err(image_err)?;
         file.rewind().map_err(io)?;
         let mut reader = image::ImageReader::with_format(BufReader::new(file), format);
-        let (width, height) = reader
-            .into_dimensions()
-            .map_err(|e| decode_err(e.to_string()))?;
+        let (width, height) = reader.into_dimensions().map_err(image_err)?;
         let name = path.display().to_string();
         check_size(&name, width, height)?;
         if width as u64 * height as u64 > max_pixels {
@@ -138,7 +142,7 @@ impl Frame {
             format,
         );
         reader.limits(decode_limits(width, height));
-        let img = reader.decode().map_err(|e| decode_err(e.to_string()))?;
+        let img = reader.decode().map_err(image_err)?;
         Self::named(&name, &img)
     }
 
@@ -167,13 +171,19 @@ impl Frame {
         let decode_err = |reason: String| Error::Decode {
             path: path.to_path_buf(),
             reason,
+            source: None,
+        };
+        let image_err = |e: image::ImageError| Error::Decode {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+            source: Some(Box::new(e)),
         };
         if bytes.is_empty() {
             return Err(decode_err("file is empty".into()));
         }
         let format = image::guess_format(bytes)
             .or_else(|_| image::ImageFormat::from_path(path))
-            .map_err(|e| decode_err(e.to_string()))?;
+            .map_err(image_err)?;
         let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
         reader.limits({
             let mut l = image::Limits::default();
@@ -181,7 +191,7 @@ impl Frame {
             l.max_image_height = Some(MAX_SIDE);
             l
         });
-        let img = reader.decode().map_err(|e| decode_err(e.to_string()))?;
+        let img = reader.decode().map_err(image_err)?;
         Self::named(&path.display().to_string(), &img)
     }
 

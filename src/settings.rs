@@ -5,9 +5,9 @@
 
 use std::path::Path;
 
-use serde::de::DeserializeOwned;
+use serde::Deserialize;
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 use crate::features::DetectorConfig;
 use crate::nav::gist::GistConfig;
 use crate::nav::replay::ReplayConfig;
@@ -33,37 +33,37 @@ pub struct Settings {
     present: Vec<String>,
 }
 
-/// The tables a settings file may hold.
-pub const TABLES: [&str; 6] = ["detector", "slam", "gist", "nav", "replay", "synthetic"];
+/// The file as serde reads it, so that parser errors keep their position in the text.
+#[derive(Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+struct SettingsFile {
+    detector: DetectorConfig,
+    slam: SlamConfig,
+    gist: GistConfig,
+    nav: NavConfig,
+    replay: ReplayConfig,
+    synthetic: SyntheticConfig,
+}
 
 impl Settings {
-    /// Parses a settings file's text; errors name the table and the key.
-    pub fn from_toml_str(text: &str) -> std::result::Result<Self, String> {
-        let table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
-        let mut settings = Settings::default();
-        for (name, value) in table {
-            settings.present.push(name.clone());
-            match name.as_str() {
-                "detector" => settings.detector = section(&name, value)?,
-                "slam" => settings.slam = section(&name, value)?,
-                "gist" => settings.gist = section(&name, value)?,
-                "nav" => settings.nav = section(&name, value)?,
-                "replay" => settings.replay = section(&name, value)?,
-                "synthetic" => settings.synthetic = section(&name, value)?,
-                other => {
-                    return Err(format!(
-                        "unknown {} `{other}`: settings go in the tables [{}]",
-                        if value.is_table() { "table" } else { "key" },
-                        TABLES.join("], [")
-                    ))
-                }
-            }
-        }
-        settings
-            .detector
+    /// Parses a settings file's text; errors give the line, the table and the key.
+    pub fn from_toml_str(text: &str) -> std::result::Result<Self, ConfigError> {
+        let file: SettingsFile =
+            toml::from_str(text).map_err(|e| ConfigError::from_toml(text, e))?;
+        let tables: toml::Table =
+            toml::from_str(text).map_err(|e| ConfigError::from_toml(text, e))?;
+        file.detector
             .validate()
-            .map_err(|e| format!("[detector]: {e}"))?;
-        Ok(settings)
+            .map_err(|e| ConfigError::invalid("detector", e))?;
+        Ok(Settings {
+            detector: file.detector,
+            slam: file.slam,
+            gist: file.gist,
+            nav: file.nav,
+            replay: file.replay,
+            synthetic: file.synthetic,
+            present: tables.keys().cloned().collect(),
+        })
     }
 
     /// Whether the file had this table (a command may start from its own preset otherwise).
@@ -77,27 +77,15 @@ impl Settings {
             path: path.to_path_buf(),
             source,
         })?;
-        Self::from_toml_str(&text).map_err(|reason| Error::ConfigFile {
+        Self::from_toml_str(&text).map_err(|source| Error::ConfigFile {
             path: path.to_path_buf(),
-            reason,
+            source: Box::new(source),
         })
     }
 
     /// [`Settings::load`] when a file is given, the defaults otherwise.
     pub fn load_or_default(path: Option<&Path>) -> Result<Self> {
         path.map_or_else(|| Ok(Self::default()), Self::load)
-    }
-}
-
-fn section<T: DeserializeOwned>(name: &str, value: toml::Value) -> std::result::Result<T, String> {
-    match value {
-        toml::Value::Table(table) => table
-            .try_into::<T>()
-            .map_err(|e| format!("[{name}]: {}", e.to_string().trim_end())),
-        other => Err(format!(
-            "`{name}` must be a table ([{name}]), found a {}",
-            other.type_str()
-        )),
     }
 }
 
@@ -117,12 +105,24 @@ mod tests {
         assert_eq!(s.nav, NavConfig::default());
         assert!(s.has("slam") && !s.has("nav"));
         let e = Settings::from_toml_str("[slam]\nmax_landmarkz = 4\n").unwrap_err();
-        assert!(e.contains("[slam]") && e.contains("max_landmarkz"), "{e}");
-        let e = Settings::from_toml_str("[detectr]\n").unwrap_err();
-        assert!(e.contains("detectr") && e.contains("[detector]"), "{e}");
-        let e = Settings::from_toml_str("orientations = 8\n").unwrap_err();
-        assert!(e.contains("unknown key `orientations`"), "{e}");
+        assert_eq!(e.line, Some(2));
+        assert_eq!(e.table.as_deref(), Some("slam"));
+        assert_eq!(e.key.as_deref(), Some("max_landmarkz"));
+        let text = e.to_string();
+        assert!(
+            text.starts_with("line 2: [slam] max_landmarkz: unknown field"),
+            "{text}"
+        );
+        let e = Settings::from_toml_str("[detectr]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("detectr") && e.contains("`detector`"), "{e}");
+        let e = Settings::from_toml_str("orientations = 8\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown field `orientations`"), "{e}");
         let e = Settings::from_toml_str("[detector]\nscales = 0\n").unwrap_err();
-        assert!(e.contains("[detector]") && e.contains("scales"), "{e}");
+        assert_eq!(e.key.as_deref(), Some("scales"));
+        assert!(std::error::Error::source(&e).is_some());
     }
 }

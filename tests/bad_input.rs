@@ -100,7 +100,7 @@ fn non_finite_and_out_of_range_config_values_are_refused() {
         "rank_normalization = nan",
         "max_keypoints = 0",
     ] {
-        let e = DetectorConfig::from_toml_str(text).unwrap_err();
+        let e = DetectorConfig::from_toml_str(text).unwrap_err().to_string();
         let field = text
             .trim_start_matches("[detector]\n")
             .split(' ')
@@ -264,7 +264,7 @@ fn config_errors_name_the_real_key() {
         ("orientatons = 8\n", "orientatons"),
     ];
     for (text, culprit) in cases {
-        let message = DetectorConfig::from_toml_str(text).unwrap_err();
+        let message = DetectorConfig::from_toml_str(text).unwrap_err().to_string();
         assert!(message.contains(culprit), "{text:?}: {message}");
         assert!(
             !message.contains("unknown field `detector`"),

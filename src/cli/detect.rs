@@ -97,7 +97,7 @@ pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
             if e.is::<StdoutFailed>() {
                 return Err(e);
             }
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", crate::error_chain(&e));
             failed += 1;
         }
     }

@@ -145,7 +145,7 @@ fn main() -> ExitCode {
                 ExitCode::from(141)
             }
             _ => {
-                eprintln!("error: {e:#}");
+                eprintln!("error: {}", error_chain(&e));
                 ExitCode::FAILURE
             }
         },
@@ -156,3 +156,25 @@ fn main() -> ExitCode {
 #[derive(Debug, thiserror::Error)]
 #[error("cannot write to stdout: {0}")]
 struct StdoutFailed(std::io::Error);
+
+/// An error and its sources on one line. Library errors keep the error they came from as
+/// their source and often quote it too, so a source already quoted is not repeated.
+pub fn error_chain(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        // A parser's report ends with its message, after a quoted snippet of the input.
+        let gist = text
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("");
+        if line.is_empty() {
+            line = text;
+        } else if !line.contains(gist.trim()) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+    }
+    line
+}

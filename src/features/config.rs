@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 
 /// Order of the Gaussian-derivative basis that is steered (eq 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -224,32 +224,25 @@ impl DetectorConfig {
 
     /// Parses a TOML document (the `[detector]` table or a bare table) and validates it.
     ///
-    /// Errors name the real culprit: a misspelled key or a wrong type inside `[detector]`, a
-    /// stray table beside it, or a top-level key next to it.
-    pub fn from_toml_str(text: &str) -> Result<Self, String> {
-        let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
-        let cfg = match table.remove("detector") {
-            Some(toml::Value::Table(detector)) => {
-                if let Some(other) = table.keys().next() {
-                    return Err(format!(
-                        "unknown key `{other}` beside [detector] (every setting goes inside it)"
-                    ));
-                }
-                detector
-                    .try_into::<DetectorConfig>()
-                    .map_err(|e| format!("[detector]: {}", e.to_string().trim_end()))?
-            }
-            Some(other) => {
-                return Err(format!(
-                    "`detector` must be a table, found a {}",
-                    other.type_str()
-                ))
-            }
-            None => table
-                .try_into::<DetectorConfig>()
-                .map_err(|e| e.to_string().trim_end().to_string())?,
+    /// Errors name the real culprit with its line: a misspelled key or a wrong type inside
+    /// `[detector]`, a stray table beside it, or a top-level key next to it.
+    pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct InTable {
+            detector: DetectorConfig,
+        }
+        let parse_error = |e| ConfigError::from_toml(text, e);
+        let table: toml::Table = toml::from_str(text).map_err(parse_error)?;
+        let cfg = if table.contains_key("detector") {
+            toml::from_str::<InTable>(text)
+                .map_err(parse_error)?
+                .detector
+        } else {
+            toml::from_str::<DetectorConfig>(text).map_err(parse_error)?
         };
-        cfg.validate().map_err(|e| e.to_string())?;
+        cfg.validate()
+            .map_err(|e| ConfigError::invalid("detector", e))?;
         Ok(cfg)
     }
 

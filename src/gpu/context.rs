@@ -65,7 +65,10 @@ impl GpuContext {
                     ..Default::default()
                 })
                 .await
-                .map_err(|e| Error::NoGpu(format!("no adapter found ({e})")))?;
+                .map_err(|e| Error::NoGpu {
+                    reason: format!("no adapter found ({e})"),
+                    source: Some(Box::new(e)),
+                })?;
             let wanted = wgpu::Features::TIMESTAMP_QUERY;
             let features = adapter.features() & wanted;
             let limits = adapter.limits();
@@ -77,10 +80,11 @@ impl GpuContext {
                     ..Default::default()
                 })
                 .await
-                .map_err(|e| {
-                    Error::NoGpu(format!(
+                .map_err(|e| Error::NoGpu {
+                    reason: format!(
                         "device request (features {features:?}, adapter limits) failed: {e}"
-                    ))
+                    ),
+                    source: Some(Box::new(e)),
                 })?;
             Ok(Self::from_device(device, queue, adapter.get_info()))
         })

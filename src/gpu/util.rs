@@ -111,13 +111,13 @@ pub fn read_staging(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) ->
     });
     device
         .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Gpu(format!("poll failed: {e}")))?;
+        .map_err(|e| gpu_error("waiting for the device", e))?;
     rx.recv()
-        .map_err(|_| Error::Gpu("map callback never ran".into()))?
-        .map_err(|e| Error::Gpu(format!("mapping the readback buffer failed: {e}")))?;
+        .map_err(|e| gpu_error("the readback's map callback never ran", e))?
+        .map_err(|e| gpu_error("mapping the readback buffer", e))?;
     let data = slice
         .get_mapped_range()
-        .map_err(|e| Error::Gpu(format!("mapped range: {e}")))?
+        .map_err(|e| gpu_error("reading the mapped range", e))?
         .to_vec();
     buffer.unmap();
     Ok(data)
@@ -141,4 +141,12 @@ pub fn read_storage(
 /// Workgroups of 16×16 covering a `width`×`height` plane.
 pub fn groups_2d(width: u32, height: u32) -> (u32, u32) {
     (width.div_ceil(16), height.div_ceil(16))
+}
+
+/// An [`Error::Gpu`] for `operation`, keeping wgpu's error as its source.
+pub fn gpu_error(operation: &str, source: impl std::error::Error + Send + Sync + 'static) -> Error {
+    Error::Gpu {
+        operation: format!("{operation}: {source}"),
+        source: Some(Box::new(source)),
+    }
 }

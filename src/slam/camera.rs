@@ -11,7 +11,7 @@ use std::path::Path;
 use nalgebra::{Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 
 /// Intrinsics and distortion of one camera (the `[camera]` table of a calibration TOML).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -118,21 +118,18 @@ impl PinholeCamera {
             source,
         })?;
         let camera = if path.extension().is_some_and(|e| e == "yaml" || e == "yml") {
-            parse_euroc_yaml(&text).map_err(|reason| Error::ConfigFile {
-                path: path.to_path_buf(),
-                reason,
-            })?
+            parse_euroc_yaml(&text).map_err(|reason| Error::config_file(path, reason))?
         } else {
             toml::from_str::<CalibrationFile>(&text)
                 .map_err(|e| Error::ConfigFile {
                     path: path.to_path_buf(),
-                    reason: e.to_string(),
+                    source: Box::new(ConfigError::from_toml(&text, e)),
                 })?
                 .camera
         };
         camera.validate().map_err(|e| Error::ConfigFile {
             path: path.to_path_buf(),
-            reason: e.to_string(),
+            source: Box::new(ConfigError::invalid("camera", e)),
         })?;
         Ok(camera)
     }

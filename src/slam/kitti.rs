@@ -10,7 +10,7 @@ use nalgebra::{Matrix3, Vector3};
 use super::camera::PinholeCamera;
 use super::rotation;
 use super::trajectory::Pose;
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 
 fn read(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|source| Error::Io {
@@ -74,7 +74,7 @@ pub fn read_calibration(path: &Path, width: u32, height: u32) -> Result<PinholeC
     let camera = PinholeCamera::ideal(p[0], p[5], p[2], p[6], width, height);
     camera.validate().map_err(|e| Error::ConfigFile {
         path: path.to_path_buf(),
-        reason: e.to_string(),
+        source: Box::new(ConfigError::invalid("P0", e)),
     })?;
     Ok(camera)
 }

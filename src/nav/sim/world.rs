@@ -7,7 +7,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{ConfigError, Error, Result};
 use crate::synth::Rng;
 
 /// An obstacle's footprint.
@@ -96,11 +96,11 @@ impl World {
         })?;
         let world: World = toml::from_str(&text).map_err(|e| Error::ConfigFile {
             path: path.to_path_buf(),
-            reason: e.to_string(),
+            source: Box::new(ConfigError::from_toml(&text, e)),
         })?;
         world.validate().map_err(|e| Error::ConfigFile {
             path: path.to_path_buf(),
-            reason: e.to_string(),
+            source: Box::new(ConfigError::invalid("world", e)),
         })?;
         Ok(world)
     }
