@@ -1,4 +1,6 @@
-//! Machine-readable outputs: the keypoint JSON of the README, a CSV form, atomic file writes.
+//! Machine-readable outputs: the keypoint JSON of the README as a type, its CSV form, CSV text
+//! through the `csv` crate, and atomic file writes (tempfile). Kept in the library, not the CLI:
+//! the record is the contract outside tools and the Python bindings rely on.
 
 use std::io::Write;
 use std::path::Path;
@@ -46,15 +48,18 @@ impl ImageKeypoints {
 
     /// The CSV text: a header and one row per keypoint.
     pub fn to_csv(&self) -> String {
-        let mut s = String::from("x,y,scale,angle,response,h16,h32,h64,h128,h256\n");
-        for k in &self.keypoints {
-            let d = k.descriptor;
-            s.push_str(&format!(
-                "{},{},{},{},{},{},{},{},{},{}\n",
-                k.x, k.y, k.scale, k.angle, k.response, d[0], d[1], d[2], d[3], d[4]
-            ));
-        }
-        s
+        let header = ["x", "y", "scale", "angle", "response"]
+            .into_iter()
+            .map(String::from)
+            .chain(DESCRIPTOR_COLUMNS.iter().map(|c| c.to_string()));
+        let rows = self.keypoints.iter().map(|k| {
+            [k.x, k.y, k.scale, k.angle, k.response]
+                .into_iter()
+                .chain(k.descriptor)
+                .map(|v| v.to_string())
+                .collect::<Vec<_>>()
+        });
+        csv_text(std::iter::once(header.collect()).chain(rows))
     }
 }
 
@@ -65,16 +70,38 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         path: path.to_path_buf(),
         source,
     };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(io)?;
+    let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        Some(dir) => {
+            std::fs::create_dir_all(dir).map_err(io)?;
+            dir
+        }
+        None => Path::new("."),
+    };
+    // A uniquely named file beside the target, renamed over it once complete: a reader sees
+    // the old file or the new one, never half of one, and two writers never share a file.
+    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
+    tmp.write_all(bytes)
+        .and_then(|_| tmp.as_file().sync_all())
+        .map_err(io)?;
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+/// The keypoint CSV's descriptor columns: the entropy at 16 … 256 colours.
+const DESCRIPTOR_COLUMNS: [&str; 5] = ["h16", "h32", "h64", "h128", "h256"];
+
+/// Records as CSV text, quoted where a field needs it (by the `csv` crate, so that paths with
+/// commas or quotes survive a round trip through any CSV reader).
+pub fn csv_text<R, F>(records: impl IntoIterator<Item = R>) -> String
+where
+    R: IntoIterator<Item = F>,
+    F: AsRef<[u8]>,
+{
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for record in records {
+        w.write_record(record)
+            .expect("writing CSV to memory cannot fail");
     }
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-    let mut f = std::fs::File::create(&tmp).map_err(io)?;
-    f.write_all(bytes).and_then(|_| f.sync_all()).map_err(io)?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(io)
+    let bytes = w.into_inner().expect("flushing CSV to memory cannot fail");
+    String::from_utf8(bytes).expect("CSV of UTF-8 fields is UTF-8")
 }

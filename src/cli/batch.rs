@@ -238,20 +238,15 @@ fn detect_one(
     })
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
 /// The summary CSV: one row per image.
 pub fn summary_csv(entries: &[Entry]) -> String {
-    let mut s = String::from("image,status,width,height,keypoints,candidates,backend,ms,error\n");
-    for e in entries {
-        let img = csv_field(&e.image.display().to_string());
-        let row = match &e.outcome {
+    let header = "image,status,width,height,keypoints,candidates,backend,ms,error"
+        .split(',')
+        .map(String::from)
+        .collect::<Vec<_>>();
+    let rows = entries.iter().map(|e| {
+        let image = e.image.display().to_string();
+        match &e.outcome {
             Outcome::Done {
                 width,
                 height,
@@ -259,15 +254,31 @@ pub fn summary_csv(entries: &[Entry]) -> String {
                 candidates,
                 backend,
                 ms,
-            } => {
-                format!("{img},done,{width},{height},{keypoints},{candidates},{backend},{ms:.2},\n")
+            } => vec![
+                image,
+                "done".into(),
+                width.to_string(),
+                height.to_string(),
+                keypoints.to_string(),
+                candidates.to_string(),
+                backend.to_string(),
+                format!("{ms:.2}"),
+                String::new(),
+            ],
+            Outcome::Skipped => {
+                let mut row = vec![image, "skipped".into()];
+                row.resize(9, String::new());
+                row
             }
-            Outcome::Skipped => format!("{img},skipped,,,,,,,\n"),
-            Outcome::Failed(msg) => format!("{img},failed,,,,,,,{}\n", csv_field(msg)),
-        };
-        s.push_str(&row);
-    }
-    s
+            Outcome::Failed(msg) => {
+                let mut row = vec![image, "failed".into()];
+                row.resize(8, String::new());
+                row.push(msg.clone());
+                row
+            }
+        }
+    });
+    steernav::output::csv_text(std::iter::once(header).chain(rows))
 }
 
 #[derive(Args)]

@@ -18,6 +18,9 @@ use steernav::Frame;
 
 use crate::args::{progress, DetectorArgs};
 
+/// The columns of `--report`.
+const REPORT_HEADER: &str = "timestamp,predicted,matched,descriptor_rejected,inliers,rescued,created,deleted,converted,landmarks,state_dim,lost,relocalised,initialising,detection_ms,association_ms,filter_ms,total_ms";
+
 #[derive(Args)]
 pub struct SlamCmd {
     /// The sequence: a TUM RGB-D folder (rgb.txt + rgb/), a EuRoC folder (cam0/data.csv +
@@ -195,10 +198,8 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     }
     let mut report = match &cmd.report {
         Some(path) => {
-            let mut f = std::io::BufWriter::new(
-                std::fs::File::create(path).with_context(|| out_err(path))?,
-            );
-            writeln!(f, "timestamp,predicted,matched,descriptor_rejected,inliers,rescued,created,deleted,converted,landmarks,state_dim,lost,relocalised,initialising,detection_ms,association_ms,filter_ms,total_ms")
+            let mut f = csv::Writer::from_path(path).with_context(|| out_err(path))?;
+            f.write_record(REPORT_HEADER.split(','))
                 .with_context(|| out_err(path))?;
             Some((path.clone(), f))
         }
@@ -265,10 +266,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         traj.flush().with_context(|| out_err(&traj_path))?;
         if let Some((path, f)) = &mut report {
             let t = &r.timings;
-            writeln!(
-                f,
-                "{:.6},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.3}",
-                r.timestamp,
+            let counts = [
                 r.predicted,
                 r.matched,
                 r.descriptor_rejected,
@@ -279,15 +277,14 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 r.converted,
                 r.landmarks,
                 r.state_dim,
-                r.lost,
-                r.relocalised,
-                r.initialising,
-                t.detection_ms,
-                t.association_ms,
-                t.filter_ms,
-                t.total_ms
-            )
-            .with_context(|| out_err(path))?;
+            ];
+            let flags = [r.lost, r.relocalised, r.initialising];
+            let times = [t.detection_ms, t.association_ms, t.filter_ms, t.total_ms];
+            let row = std::iter::once(format!("{:.6}", r.timestamp))
+                .chain(counts.iter().map(|c| c.to_string()))
+                .chain(flags.iter().map(|f| f.to_string()))
+                .chain(times.iter().map(|ms| format!("{ms:.3}")));
+            f.write_record(row).with_context(|| out_err(path))?;
             // Flushed every frame: a killed run leaves whole rows up to its last frame.
             f.flush().with_context(|| out_err(path))?;
         }

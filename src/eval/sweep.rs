@@ -340,19 +340,19 @@ pub fn homography_sequence(
 
 /// The rows as CSV text with [`CSV_HEADER`].
 pub fn to_csv(rows: &[Row]) -> String {
-    let mut s = format!("{CSV_HEADER}\n");
-    for r in rows {
-        let image = if r.image.contains([',', '"']) {
-            format!("\"{}\"", r.image.replace('"', "\"\""))
-        } else {
-            r.image.clone()
-        };
-        s.push_str(&format!(
-            "{},{},{},{},{:.4},{:.4},{:.1}\n",
-            r.detector, image, r.angle, r.eps, r.repeatability, r.recall, r.count
-        ));
-    }
-    s
+    let header = CSV_HEADER.split(',').map(String::from).collect::<Vec<_>>();
+    let rows = rows.iter().map(|r| {
+        vec![
+            r.detector.clone(),
+            r.image.clone(),
+            r.angle.to_string(),
+            r.eps.to_string(),
+            format!("{:.4}", r.repeatability),
+            format!("{:.4}", r.recall),
+            format!("{:.1}", r.count),
+        ]
+    });
+    crate::output::csv_text(std::iter::once(header).chain(rows))
 }
 
 /// One detector's summary at one ε over the non-identity views.
