@@ -1,4 +1,4 @@
-//! CPU separable convolution with clamp-to-edge borders: the twin of `shaders/convolve.wgsl`.
+//! CPU separable convolution with clamp-to-edge borders: the twin of `shaders/harris_convolve.wgsl`.
 //! Rows are processed in parallel (rayon); the inner loops run over contiguous memory so the
 //! compiler vectorises them. Symmetric and antisymmetric kernels (every Gaussian derivative)
 //! are folded: one multiplication per pair of taps. The shader sums taps in plain order, so

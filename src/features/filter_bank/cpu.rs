@@ -1,5 +1,5 @@
 //! The steerable filter bank itself (eqs 3–4): basis responses I * B_i and the steered images
-//! F(θ_n) = Σ c_i(θ_n)(I * B_i). CPU twin of `shaders/steer.wgsl` (driven by
+//! F(θ_n) = Σ c_i(θ_n)(I * B_i). CPU twin of `shaders/filter_bank_steer.wgsl` (driven by
 //! [`crate::features::filter_bank::gpu`]). The detector never materialises F(θ): it steers the gradient
 //! basis instead (see [`super::steerable`]); these images are for inspection and parity.
 

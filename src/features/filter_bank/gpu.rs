@@ -1,5 +1,5 @@
-//! GPU steerable filter bank (eqs 3–4): basis responses by `convolve.wgsl`, steering by
-//! `steer.wgsl`. CPU twin: [`crate::features::filter_bank`]. An inspection API: it allocates
+//! GPU steerable filter bank (eqs 3–4): basis responses by `harris_convolve.wgsl`, steering by
+//! `filter_bank_steer.wgsl`. CPU twin: [`super::cpu`]. An inspection API: it allocates
 //! per call, unlike the detector's per-size cache.
 
 use std::sync::Arc;

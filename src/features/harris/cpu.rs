@@ -1,6 +1,6 @@
 //! CPU reference of the multiscale steered Harris detector (eqs 5–8): derivative images,
 //! window-blurred products, per-orientation responses, non-maximum suppression in space and
-//! scale with a sub-pixel quadratic fit. Twin of `shaders/{convolve,products,response,nms}.wgsl`.
+//! scale with a sub-pixel quadratic fit. Twin of `shaders/harris_{convolve,products,response,nms}.wgsl`.
 
 use std::sync::Mutex;
 

@@ -1,5 +1,5 @@
 //! GPU backend of the multiscale steered Harris stage (eqs 4–8): drives
-//! `shaders/{convolve,products,response,nms}.wgsl`. CPU twin: [`crate::features::harris`].
+//! `shaders/harris_{convolve,products,response,nms}.wgsl`. CPU twin: [`super::cpu`].
 //!
 //! Per frame: one upload of the luminance plane, every scale's passes recorded into one command
 //! encoder, one submission, then a readback of the candidate counter followed by exactly the
