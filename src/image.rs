@@ -81,6 +81,39 @@ impl Frame {
         })
     }
 
+    /// Builds a frame from interleaved RGB floats in [0, 1] (the luminance keeps their full
+    /// precision; the RGB bytes, used by the colour descriptor, are rounded).
+    pub fn from_rgb_f32(width: u32, height: u32, rgb: &[f32]) -> Result<Self> {
+        check_size("image", width, height)?;
+        let n = width as usize * height as usize;
+        let bad = |reason: String| Error::ImageSize {
+            input: "image".into(),
+            width,
+            height,
+            reason,
+        };
+        if rgb.len() != 3 * n {
+            return Err(bad(format!("expected {} RGB values, got {}", 3 * n, rgb.len())));
+        }
+        if let Some(i) = rgb.iter().position(|v| !v.is_finite()) {
+            return Err(bad(format!("value {i} is not finite")));
+        }
+        let gray = rgb
+            .chunks_exact(3)
+            .map(|p| 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2])
+            .collect();
+        let rgb = rgb
+            .iter()
+            .map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+            .collect();
+        Ok(Self {
+            width,
+            height,
+            gray,
+            rgb,
+        })
+    }
+
     /// Converts a decoded `image` crate image (any pixel type).
     pub fn from_dynamic(img: &image::DynamicImage) -> Result<Self> {
         let rgb = img.to_rgb8();

@@ -1,0 +1,676 @@
+//! Python bindings of steernav: numpy arrays in and out, the GIL released while the library
+//! works, every library error raised as a Python exception with the library's message.
+//!
+//! Built on the library API only (no CLI code), so `Detector(backend="cpu").detect(image)`
+//! gives exactly what `steernav detect --backend cpu` writes for the same pixels.
+
+use std::sync::Arc;
+
+use numpy::ndarray::{Array1, Array2};
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyReadonlyArrayDyn, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use rayon::prelude::*;
+use steernav_core::eval::homography::Homography;
+use steernav_core::eval::recall::{Descriptors, KeypointSet};
+use steernav_core::gpu::GpuContext;
+use steernav_core::nav::controller::{Controller as CoreController, LaserScan};
+use steernav_core::nav::gist::{GistConfig, GistEngine, GpuGist};
+use steernav_core::nav::sim::episode::{Mode, NavConfig};
+use steernav_core::slam::camera::PinholeCamera;
+use steernav_core::slam::config::SlamConfig;
+use steernav_core::slam::tracker::Slam as CoreSlam;
+use steernav_core::{Backend, Detection, Detector as CoreDetector, DetectorConfig, Frame};
+
+/// A library error as the Python exception that fits it: bad values are `ValueError`, a
+/// missing or failing GPU is `RuntimeError`.
+fn py_err(e: steernav_core::Error) -> PyErr {
+    use steernav_core::Error as E;
+    match e {
+        E::NoGpu { .. } | E::Gpu { .. } | E::GpuLimit(_) | E::Io { .. } => {
+            PyRuntimeError::new_err(e.to_string())
+        }
+        other => PyValueError::new_err(other.to_string()),
+    }
+}
+
+/// Python keyword arguments as a TOML table, so that a config type's own deserialisation
+/// (unknown keys refused, types checked) names the bad key.
+fn kwargs_table(kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<toml::Table> {
+    let mut table = toml::Table::new();
+    if let Some(kwargs) = kwargs {
+        for (key, value) in kwargs.iter() {
+            let key: String = key.extract()?;
+            table.insert(key.clone(), toml_value(&key, &value)?);
+        }
+    }
+    Ok(table)
+}
+
+fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    if let Ok(b) = value.extract::<bool>() {
+        return Ok(toml::Value::Boolean(b));
+    }
+    if let Ok(i) = value.extract::<i64>() {
+        return Ok(toml::Value::Integer(i));
+    }
+    if let Ok(f) = value.extract::<f64>() {
+        return Ok(toml::Value::Float(f));
+    }
+    if let Ok(s) = value.extract::<String>() {
+        return Ok(toml::Value::String(s));
+    }
+    if let Ok(list) = value.cast::<PyList>() {
+        let items = list
+            .iter()
+            .map(|v| toml_value(key, &v))
+            .collect::<PyResult<Vec<_>>>()?;
+        return Ok(toml::Value::Array(items));
+    }
+    if let Ok(dict) = value.cast::<PyDict>() {
+        return Ok(toml::Value::Table(kwargs_table(Some(dict))?));
+    }
+    Err(PyTypeError::new_err(format!(
+        "{key}: {} is not a number, a string, a bool, a list or a dict",
+        value.get_type().name()?
+    )))
+}
+
+/// A config type from keyword arguments; errors name the key.
+fn config_from<T: serde::de::DeserializeOwned>(
+    what: &str,
+    kwargs: Option<&Bound<'_, PyDict>>,
+) -> PyResult<T> {
+    kwargs_table(kwargs)?
+        .try_into::<T>()
+        .map_err(|e| PyValueError::new_err(format!("{what}: {}", e.to_string().trim_end())))
+}
+
+fn parse_backend(name: &str) -> PyResult<Backend> {
+    name.parse::<Backend>().map_err(|_| {
+        PyValueError::new_err(format!(
+            "backend = {name:?}: expected one of auto, gpu, cpu"
+        ))
+    })
+}
+
+/// A numpy image as a frame: uint8 or float32 (values in [0, 1]), shape (H, W) or (H, W, 3)
+/// in RGB order.
+fn frame_of(image: &Bound<'_, PyAny>) -> PyResult<Frame> {
+    let shape_err = |shape: &[usize]| {
+        PyValueError::new_err(format!(
+            "image: expected shape (H, W) or (H, W, 3), got {shape:?}"
+        ))
+    };
+    let dims = |shape: &[usize]| -> PyResult<(u32, u32, bool)> {
+        match *shape {
+            [h, w] => Ok((w as u32, h as u32, false)),
+            [h, w, 3] => Ok((w as u32, h as u32, true)),
+            _ => Err(shape_err(shape)),
+        }
+    };
+    if let Ok(a) = image.extract::<PyReadonlyArrayDyn<'_, u8>>() {
+        let (w, h, colour) = dims(a.shape())?;
+        let data: Vec<u8> = a.as_array().iter().copied().collect();
+        let rgb = if colour {
+            data
+        } else {
+            data.iter().flat_map(|&v| [v, v, v]).collect()
+        };
+        return Frame::from_rgb(w, h, rgb).map_err(py_err);
+    }
+    if let Ok(a) = image.extract::<PyReadonlyArrayDyn<'_, f32>>() {
+        let (w, h, colour) = dims(a.shape())?;
+        let data: Vec<f32> = a.as_array().iter().copied().collect();
+        return if colour {
+            Frame::from_rgb_f32(w, h, &data)
+        } else {
+            Frame::from_gray(w, h, data)
+        }
+        .map_err(py_err);
+    }
+    let dtype = image
+        .getattr("dtype")
+        .map(|d| d.to_string())
+        .unwrap_or_else(|_| image.get_type().to_string());
+    Err(PyTypeError::new_err(format!(
+        "image: expected a numpy array of uint8 or float32, got {dtype}"
+    )))
+}
+
+/// Keypoints of one image as numpy arrays.
+#[pyclass(module = "steernav", frozen)]
+struct Keypoints {
+    /// (K, 2) float32: x, y in pixels, pixel centres at integers.
+    #[pyo3(get)]
+    xy: Py<PyArray2<f32>>,
+    /// (K,) float32: σ_D of the dominant scale.
+    #[pyo3(get)]
+    scale: Py<PyArray1<f32>>,
+    /// (K,) float32: dominant steered orientation, radians in [0, π).
+    #[pyo3(get)]
+    angle: Py<PyArray1<f32>>,
+    /// (K,) float32: strongest Harris response of the cluster.
+    #[pyo3(get)]
+    response: Py<PyArray1<f32>>,
+    /// (K, 5) float32: the entropy descriptor.
+    #[pyo3(get)]
+    descriptor: Py<PyArray2<f32>>,
+    /// "cpu" or "gpu": where the detection ran.
+    #[pyo3(get)]
+    backend: &'static str,
+    len: usize,
+}
+
+impl Keypoints {
+    fn new(py: Python<'_>, d: &Detection) -> Self {
+        let k = d.keypoints.len();
+        let xy = Array2::from_shape_fn((k, 2), |(i, c)| {
+            if c == 0 {
+                d.keypoints[i].x
+            } else {
+                d.keypoints[i].y
+            }
+        });
+        let descriptor = Array2::from_shape_fn((k, 5), |(i, c)| d.keypoints[i].descriptor[c]);
+        let column = |f: fn(&steernav_core::Keypoint) -> f32| {
+            Array1::from_iter(d.keypoints.iter().map(f))
+                .into_pyarray(py)
+                .unbind()
+        };
+        Self {
+            xy: xy.into_pyarray(py).unbind(),
+            scale: column(|k| k.scale),
+            angle: column(|k| k.angle),
+            response: column(|k| k.response),
+            descriptor: descriptor.into_pyarray(py).unbind(),
+            backend: d.backend,
+            len: k,
+        }
+    }
+}
+
+#[pymethods]
+impl Keypoints {
+    fn __len__(&self) -> usize {
+        self.len
+    }
+
+    fn __repr__(&self) -> String {
+        format!("<Keypoints: {} on {}>", self.len, self.backend)
+    }
+
+    /// The keypoints as OpenCV `cv2.KeyPoint`s: size is the diameter 2·3σ_D of the drawn
+    /// circle, angle in degrees, response as is.
+    fn to_cv<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let cv2 = py.import("cv2").map_err(|_| {
+            PyRuntimeError::new_err("to_cv() needs OpenCV: pip install opencv-python-headless")
+        })?;
+        let xy = self.xy.bind(py).readonly();
+        let xy = xy.as_array();
+        let scale = self.scale.bind(py).readonly();
+        let angle = self.angle.bind(py).readonly();
+        let response = self.response.bind(py).readonly();
+        let (scale, angle, response) = (scale.as_array(), angle.as_array(), response.as_array());
+        let list = PyList::empty(py);
+        for i in 0..self.len {
+            let kp = cv2.getattr("KeyPoint")?.call1((
+                xy[[i, 0]],
+                xy[[i, 1]],
+                6.0 * scale[i],
+                angle[i].to_degrees(),
+                response[i],
+            ))?;
+            list.append(kp)?;
+        }
+        Ok(list)
+    }
+}
+
+/// The rotation-invariant keypoint detector.
+#[pyclass(module = "steernav", frozen)]
+struct Detector {
+    inner: Arc<CoreDetector>,
+}
+
+#[pymethods]
+impl Detector {
+    /// `Detector(backend="auto", **detector_settings)`: the keys of the `[detector]` table.
+    #[new]
+    #[pyo3(signature = (backend = "auto", **settings))]
+    fn new(backend: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let backend = parse_backend(backend)?;
+        let config: DetectorConfig = config_from("Detector", settings)?;
+        let inner = CoreDetector::new(&config, backend).map_err(py_err)?;
+        Ok(Self {
+            inner: Arc::new(inner),
+        })
+    }
+
+    /// "cpu" or "gpu": where frames go.
+    #[getter]
+    fn backend(&self) -> &'static str {
+        self.inner.backend()
+    }
+
+    /// Keypoints of one image: uint8 or float32 in [0, 1], (H, W) or (H, W, 3) RGB.
+    fn detect(&self, py: Python<'_>, image: &Bound<'_, PyAny>) -> PyResult<Keypoints> {
+        let frame = frame_of(image)?;
+        let detector = Arc::clone(&self.inner);
+        let found = py.detach(move || detector.detect(&frame)).map_err(py_err)?;
+        Ok(Keypoints::new(py, &found))
+    }
+
+    /// Keypoints of many images: across CPU threads, or one after another on the GPU.
+    fn detect_batch(&self, py: Python<'_>, images: &Bound<'_, PyAny>) -> PyResult<Vec<Keypoints>> {
+        let frames = images
+            .try_iter()?
+            .map(|image| frame_of(&image?))
+            .collect::<PyResult<Vec<_>>>()?;
+        let detector = Arc::clone(&self.inner);
+        let found = py
+            .detach(move || -> steernav_core::Result<Vec<Detection>> {
+                if detector.backend() == "gpu" {
+                    frames.iter().map(|f| detector.detect(f)).collect()
+                } else {
+                    frames.par_iter().map(|f| detector.detect(f)).collect()
+                }
+            })
+            .map_err(py_err)?;
+        Ok(found.iter().map(|d| Keypoints::new(py, d)).collect())
+    }
+}
+
+/// `gist(image_or_list, backend="auto", **gist_settings)`: (512,) for one image, (N, 512) for
+/// a list.
+#[pyfunction]
+#[pyo3(signature = (images, backend = "auto", **settings))]
+fn gist<'py>(
+    py: Python<'py>,
+    images: &Bound<'py, PyAny>,
+    backend: &str,
+    settings: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let backend = parse_backend(backend)?;
+    let config: GistConfig = config_from("gist", settings)?;
+    let single = images.hasattr("shape")?;
+    let frames = if single {
+        vec![frame_of(images)?]
+    } else {
+        images
+            .try_iter()?
+            .map(|image| frame_of(&image?))
+            .collect::<PyResult<Vec<_>>>()?
+    };
+    let context = match backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(GpuContext::shared().map_err(py_err)?),
+        Backend::Auto => steernav_core::gpu::context::auto_context().ok(),
+    };
+    let rows = py
+        .detach(move || -> steernav_core::Result<Vec<Vec<f32>>> {
+            match context {
+                Some(ctx) => GpuGist::new(ctx, config)?.describe_batch(&frames),
+                None => {
+                    let engine = GistEngine::new(config)?;
+                    frames.par_iter().map(|f| engine.describe(f)).collect()
+                }
+            }
+        })
+        .map_err(py_err)?;
+    if single {
+        return Ok(Array1::from(rows.into_iter().next().unwrap_or_default())
+            .into_pyarray(py)
+            .into_any());
+    }
+    let width = rows.first().map_or(0, |r| r.len());
+    let flat: Vec<f32> = rows.concat();
+    let array = Array2::from_shape_vec((flat.len() / width.max(1), width), flat)
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(array.into_pyarray(py).into_any())
+}
+
+/// Monocular EKF SLAM, one frame at a time.
+#[pyclass(module = "steernav")]
+struct Slam {
+    inner: CoreSlam,
+    detector: Arc<CoreDetector>,
+    trajectory: Vec<[f64; 8]>,
+}
+
+#[pymethods]
+impl Slam {
+    /// `Slam(fx, fy, cx, cy, width, height, distortion=None, backend="auto", **slam_settings)`;
+    /// `distortion` is (k1, k2, p1, p2, k3) or shorter.
+    #[new]
+    #[pyo3(signature = (fx, fy, cx, cy, width, height, distortion = None, backend = "auto", **settings))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        width: u32,
+        height: u32,
+        distortion: Option<Vec<f64>>,
+        backend: &str,
+        settings: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        let mut camera = PinholeCamera::ideal(fx, fy, cx, cy, width, height);
+        if let Some(d) = distortion {
+            if d.len() > 5 {
+                return Err(PyValueError::new_err(format!(
+                    "distortion: at most 5 coefficients (k1, k2, p1, p2, k3), got {}",
+                    d.len()
+                )));
+            }
+            let mut k = [0.0; 5];
+            k[..d.len()].copy_from_slice(&d);
+            [camera.k1, camera.k2, camera.p1, camera.p2, camera.k3] = k;
+        }
+        camera.validate().map_err(py_err)?;
+        let config: SlamConfig = config_from("Slam", settings)?;
+        let detector = CoreDetector::new(&DetectorConfig::tracking(), parse_backend(backend)?)
+            .map_err(py_err)?;
+        Ok(Self {
+            inner: CoreSlam::new(camera, config).map_err(py_err)?,
+            detector: Arc::new(detector),
+            trajectory: Vec::new(),
+        })
+    }
+
+    /// Processes the frame taken at `t` seconds. Returns a dict: position (3,), quaternion
+    /// (4,) as (x, y, z, w), covariance (6, 6) of position and rotation vector, and the
+    /// per-frame report's counts and flags.
+    fn process<'py>(
+        &mut self,
+        py: Python<'py>,
+        image: &Bound<'py, PyAny>,
+        t: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let frame = frame_of(image)?;
+        if !t.is_finite() {
+            return Err(PyValueError::new_err(format!("t = {t}: must be finite")));
+        }
+        let (slam, detector) = (&mut self.inner, Arc::clone(&self.detector));
+        let report = py
+            .detach(|| slam.process(&frame, t, None, &detector))
+            .map_err(py_err)?;
+        let [qw, qx, qy, qz] = report.orientation;
+        let [x, y, z] = report.position;
+        self.trajectory.push([t, x, y, z, qx, qy, qz, qw]);
+        let out = PyDict::new(py);
+        out.set_item("position", Array1::from(vec![x, y, z]).into_pyarray(py))?;
+        out.set_item(
+            "quaternion",
+            Array1::from(vec![qx, qy, qz, qw]).into_pyarray(py),
+        )?;
+        out.set_item("covariance", pose_covariance(&self.inner).into_pyarray(py))?;
+        for (key, value) in [
+            ("predicted", report.predicted),
+            ("matched", report.matched),
+            ("inliers", report.inliers),
+            ("created", report.created),
+            ("deleted", report.deleted),
+            ("landmarks", report.landmarks),
+        ] {
+            out.set_item(key, value)?;
+        }
+        for (key, value) in [
+            ("lost", report.lost),
+            ("relocalised", report.relocalised),
+            ("initialising", report.initialising),
+        ] {
+            out.set_item(key, value)?;
+        }
+        Ok(out)
+    }
+
+    /// The trajectory so far as an (N, 8) TUM array: t, x, y, z, qx, qy, qz, qw.
+    fn trajectory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let flat: Vec<f64> = self.trajectory.iter().flatten().copied().collect();
+        let array = Array2::from_shape_vec((self.trajectory.len(), 8), flat)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(array.into_pyarray(py))
+    }
+}
+
+/// Covariance of (position, rotation vector) from the filter's (position, quaternion) block:
+/// J P Jᵀ with δθ = 2 Im(q* ⊗ δq).
+fn pose_covariance(slam: &CoreSlam) -> Array2<f64> {
+    let f = slam.filter();
+    let q = [f.x[3], f.x[4], f.x[5], f.x[6]];
+    let (w, v) = (q[0], [q[1], q[2], q[3]]);
+    let mut j = [[0.0f64; 7]; 6];
+    for (i, row) in j.iter_mut().enumerate().take(3) {
+        row[i] = 1.0;
+    }
+    // Rows 3..6: 2·[−v | w·I − [v]×].
+    let skew = [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]];
+    for r in 0..3 {
+        j[3 + r][3] = -2.0 * v[r];
+        for c in 0..3 {
+            let identity = if r == c { w } else { 0.0 };
+            j[3 + r][4 + c] = 2.0 * (identity - skew[r][c]);
+        }
+    }
+    Array2::from_shape_fn((6, 6), |(a, b)| {
+        let mut sum = 0.0;
+        for k in 0..7 {
+            for l in 0..7 {
+                sum += j[a][k] * f.p[(k, l)] * j[b][l];
+            }
+        }
+        sum
+    })
+}
+
+/// The neural-field navigation controller of one robot.
+#[pyclass(module = "steernav")]
+struct Controller {
+    inner: CoreController,
+}
+
+#[pymethods]
+impl Controller {
+    /// `Controller(**nav_settings)`: the keys of the `[nav]` table (field, stimulus, turn_gain…).
+    #[new]
+    #[pyo3(signature = (**settings))]
+    fn new(settings: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let config: NavConfig = config_from("Controller", settings)?;
+        Ok(Self {
+            inner: CoreController::new(config, Mode::Laser, Default::default()).map_err(py_err)?,
+        })
+    }
+
+    /// One control cycle: ranges (metres) with the first beam's angle and the spacing
+    /// (radians, ROS convention), the pose (x, y, θ) and the goal (x, y). Returns
+    /// (v, ω, heading).
+    #[pyo3(signature = (ranges, angle_min, angle_increment, pose, goal, range_max = f32::INFINITY))]
+    fn step(
+        &mut self,
+        ranges: PyReadonlyArray1<'_, f32>,
+        angle_min: f32,
+        angle_increment: f32,
+        pose: (f32, f32, f32),
+        goal: (f32, f32),
+        range_max: f32,
+    ) -> PyResult<(f32, f32, f32)> {
+        let scan = LaserScan::new(
+            ranges.as_array().to_vec(),
+            angle_min,
+            angle_increment,
+            range_max,
+        );
+        let c = self
+            .inner
+            .step(&scan, [pose.0, pose.1, pose.2], [goal.0, goal.1], None)
+            .map_err(py_err)?;
+        Ok((c.v, c.omega, c.heading))
+    }
+
+    /// The field's activations after the last step, (N,) over world headings 2πi/N.
+    #[getter]
+    fn field<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f32>> {
+        Array1::from(self.inner.field().to_vec()).into_pyarray(py)
+    }
+}
+
+fn points(xy: &PyReadonlyArray2<'_, f32>, what: &str) -> PyResult<Vec<(f64, f64)>> {
+    let a = xy.as_array();
+    if a.ncols() != 2 {
+        return Err(PyValueError::new_err(format!(
+            "{what}: expected shape (K, 2), got {:?}",
+            a.shape()
+        )));
+    }
+    Ok(a.rows()
+        .into_iter()
+        .map(|r| (r[0] as f64, r[1] as f64))
+        .collect())
+}
+
+fn homography(h: &PyReadonlyArray2<'_, f64>) -> PyResult<Homography> {
+    let a = h.as_array();
+    if a.shape() != [3, 3] {
+        return Err(PyValueError::new_err(format!(
+            "H: expected shape (3, 3), got {:?}",
+            a.shape()
+        )));
+    }
+    let mut out = [0.0; 9];
+    for (o, v) in out.iter_mut().zip(a.iter()) {
+        *o = *v;
+    }
+    if out.iter().any(|v| !v.is_finite()) {
+        return Err(PyValueError::new_err("H: every entry must be finite"));
+    }
+    Ok(out)
+}
+
+fn size_of(shape: (u32, u32)) -> (u32, u32) {
+    // numpy shapes are (height, width); the library takes (width, height).
+    (shape.1, shape.0)
+}
+
+/// Repeatability (eq 11) of two keypoint sets under the map `H` (3×3, view 1 → view 2).
+/// `kp1`, `kp2`: (K, 2) arrays of x, y. `shape1`, `shape2`: the images' (H, W).
+#[pyfunction]
+#[pyo3(signature = (kp1, kp2, H, shape1, shape2, eps = 2.0, margin = 10.0))]
+#[allow(non_snake_case)]
+fn repeatability(
+    kp1: PyReadonlyArray2<'_, f32>,
+    kp2: PyReadonlyArray2<'_, f32>,
+    H: PyReadonlyArray2<'_, f64>,
+    shape1: (u32, u32),
+    shape2: (u32, u32),
+    eps: f64,
+    margin: f64,
+) -> PyResult<f64> {
+    let (p1, p2) = (points(&kp1, "kp1")?, points(&kp2, "kp2")?);
+    let h = homography(&H)?;
+    Ok(steernav_core::eval::repeatability(
+        &p1,
+        size_of(shape1),
+        &p2,
+        size_of(shape2),
+        &h,
+        eps,
+        margin,
+    )
+    .ratio)
+}
+
+/// Recall (eq 12) of nearest-neighbour descriptor matching with Lowe's ratio test.
+/// Descriptors are float arrays (K, D), compared by Euclidean distance.
+#[pyfunction]
+#[pyo3(signature = (kp1, desc1, kp2, desc2, H, shape1, shape2, eps = 2.0, ratio = 0.8, margin = 10.0))]
+#[allow(non_snake_case, clippy::too_many_arguments)]
+fn recall(
+    kp1: PyReadonlyArray2<'_, f32>,
+    desc1: PyReadonlyArray2<'_, f32>,
+    kp2: PyReadonlyArray2<'_, f32>,
+    desc2: PyReadonlyArray2<'_, f32>,
+    H: PyReadonlyArray2<'_, f64>,
+    shape1: (u32, u32),
+    shape2: (u32, u32),
+    eps: f64,
+    ratio: f64,
+    margin: f64,
+) -> PyResult<f64> {
+    let set = |kp: &PyReadonlyArray2<'_, f32>, desc: &PyReadonlyArray2<'_, f32>, what: &str| {
+        let points = points(kp, what)?;
+        let rows: Vec<Vec<f32>> = desc
+            .as_array()
+            .rows()
+            .into_iter()
+            .map(|r| r.to_vec())
+            .collect();
+        if rows.len() != points.len() {
+            return Err(PyValueError::new_err(format!(
+                "{what}: {} points but {} descriptors",
+                points.len(),
+                rows.len()
+            )));
+        }
+        Ok(KeypointSet {
+            points,
+            descriptors: Descriptors::Float(rows),
+        })
+    };
+    let (a, b) = (set(&kp1, &desc1, "kp1")?, set(&kp2, &desc2, "kp2")?);
+    let h = homography(&H)?;
+    Ok(steernav_core::eval::recall::recall(
+        &a,
+        size_of(shape1),
+        &b,
+        size_of(shape2),
+        &h,
+        eps,
+        margin,
+        ratio,
+    )
+    .recall)
+}
+
+/// `textured_scene(width, height, seed=1)`: the seeded procedural scene the benchmarks and
+/// tests use, as an (H, W, 3) uint8 array.
+#[pyfunction]
+#[pyo3(signature = (width, height, seed = 1))]
+fn textured_scene(
+    py: Python<'_>,
+    width: u32,
+    height: u32,
+    seed: u64,
+) -> PyResult<Bound<'_, PyAny>> {
+    if width == 0 || height == 0 || width as u64 * height as u64 > 100_000_000 {
+        return Err(PyValueError::new_err(format!(
+            "{width}x{height}: width and height must be ≥ 1, at most 100 MP in all"
+        )));
+    }
+    let frame = steernav_core::synth::textured_scene(width, height, seed);
+    let array =
+        numpy::ndarray::Array3::from_shape_vec((height as usize, width as usize, 3), frame.rgb)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    Ok(array.into_pyarray(py).into_any())
+}
+
+/// steernav: rotation-invariant keypoints, GIST, monocular EKF SLAM and a neural-field
+/// navigation controller, with numpy arrays in and out.
+#[pymodule]
+fn steernav(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Detector>()?;
+    m.add_class::<Keypoints>()?;
+    m.add_class::<Slam>()?;
+    m.add_class::<Controller>()?;
+    m.add_function(wrap_pyfunction!(gist, m)?)?;
+    m.add_function(wrap_pyfunction!(repeatability, m)?)?;
+    m.add_function(wrap_pyfunction!(recall, m)?)?;
+    m.add_function(wrap_pyfunction!(textured_scene, m)?)?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}

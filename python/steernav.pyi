@@ -1,0 +1,120 @@
+"""steernav: rotation-invariant keypoints, GIST, monocular EKF SLAM and a neural-field
+navigation controller, with numpy arrays in and out (type stub)."""
+
+from typing import Any, Dict, Iterable, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+
+Image = Union[npt.NDArray[np.uint8], npt.NDArray[np.float32]]
+"""(H, W) or (H, W, 3) RGB; uint8, or float32 with values in [0, 1]."""
+
+class Keypoints:
+    """Keypoints of one image, strongest first."""
+
+    xy: npt.NDArray[np.float32]
+    """(K, 2): x, y in pixels, pixel centres at integers, x right, y down."""
+    scale: npt.NDArray[np.float32]
+    """(K,): σ_D of the scale dominating the keypoint's cluster, pixels."""
+    angle: npt.NDArray[np.float32]
+    """(K,): dominant steered orientation, radians in [0, π)."""
+    response: npt.NDArray[np.float32]
+    """(K,): strongest scale-normalised Harris response of the cluster."""
+    descriptor: npt.NDArray[np.float32]
+    """(K, 5): entropies (bits) at 16, 32, 64, 128, 256 colours."""
+    backend: str
+    """"cpu" or "gpu": where the detection ran."""
+    def __len__(self) -> int: ...
+    def to_cv(self) -> List[Any]:
+        """OpenCV cv2.KeyPoint list: size = 6·σ_D (the drawn circle's diameter), angle in
+        degrees. Needs cv2."""
+
+class Detector:
+    """The rotation-invariant keypoint detector.
+
+    Keyword arguments are the keys of the settings file's [detector] table (orientations,
+    scales, max_keypoints, basis, merge, threshold, ...); an unknown key or a bad value raises
+    ValueError naming it."""
+
+    backend: str
+    def __init__(self, backend: str = "auto", **settings: Any) -> None: ...
+    def detect(self, image: Image) -> Keypoints: ...
+    def detect_batch(self, images: Iterable[Image]) -> List[Keypoints]:
+        """Across CPU threads, or one after another on the GPU."""
+
+def gist(
+    images: Union[Image, Sequence[Image]], backend: str = "auto", **settings: Any
+) -> npt.NDArray[np.float32]:
+    """GIST descriptors: (512,) for one image, (N, 512) for a list. Keyword arguments are the
+    [gist] table's keys."""
+
+class Slam:
+    """Monocular EKF SLAM with inverse-depth landmarks, one frame at a time."""
+
+    def __init__(
+        self,
+        fx: float,
+        fy: float,
+        cx: float,
+        cy: float,
+        width: int,
+        height: int,
+        distortion: Optional[Sequence[float]] = None,
+        backend: str = "auto",
+        **settings: Any,
+    ) -> None:
+        """distortion: (k1, k2, p1, p2, k3) or a prefix; settings: the [slam] table's keys."""
+    def process(self, image: Image, t: float) -> Dict[str, Any]:
+        """position (3,), quaternion (4,) as (x, y, z, w), covariance (6, 6) of position and
+        rotation vector, and predicted, matched, inliers, created, deleted, landmarks, lost,
+        relocalised, initialising."""
+    def trajectory(self) -> npt.NDArray[np.float64]:
+        """(N, 8) TUM rows: t, x, y, z, qx, qy, qz, qw."""
+
+class Controller:
+    """The neural-field navigation controller; keyword arguments are the [nav] table's keys."""
+
+    field: npt.NDArray[np.float32]
+    """(N,): the field's activations over world headings 2πi/N after the last step."""
+    def __init__(self, **settings: Any) -> None: ...
+    def step(
+        self,
+        ranges: npt.NDArray[np.float32],
+        angle_min: float,
+        angle_increment: float,
+        pose: Tuple[float, float, float],
+        goal: Tuple[float, float],
+        range_max: float = ...,
+    ) -> Tuple[float, float, float]:
+        """One control cycle: returns (v, ω, heading relative to the robot)."""
+
+def repeatability(
+    kp1: npt.NDArray[np.float32],
+    kp2: npt.NDArray[np.float32],
+    H: npt.NDArray[np.float64],
+    shape1: Tuple[int, int],
+    shape2: Tuple[int, int],
+    eps: float = 2.0,
+    margin: float = 10.0,
+) -> float:
+    """Repeatability (eq 11): (K, 2) points of each view, the 3×3 map view 1 → view 2, the
+    images' (H, W)."""
+
+def recall(
+    kp1: npt.NDArray[np.float32],
+    desc1: npt.NDArray[np.float32],
+    kp2: npt.NDArray[np.float32],
+    desc2: npt.NDArray[np.float32],
+    H: npt.NDArray[np.float64],
+    shape1: Tuple[int, int],
+    shape2: Tuple[int, int],
+    eps: float = 2.0,
+    ratio: float = 0.8,
+    margin: float = 10.0,
+) -> float:
+    """Recall (eq 12) of nearest-neighbour matching with Lowe's ratio test."""
+
+def textured_scene(width: int, height: int, seed: int = 1) -> npt.NDArray[np.uint8]:
+    """The seeded procedural scene of the benchmarks and tests, (H, W, 3) RGB."""
