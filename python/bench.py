@@ -59,7 +59,7 @@ def main():
     image = steernav.textured_scene(640, 480, 1)
     # Alternate the two so that machine noise hits both alike; the best round of each counts.
     rust, python = [], []
-    for _ in range(2):
+    for _ in range(3):
         rust.append(rust_detect_ms())
         python.append(python_detect_ms(detector, image))
     r, p = min(rust), min(python)

@@ -42,7 +42,7 @@ class Detector:
     def __init__(self, backend: str = "auto", **settings: Any) -> None: ...
     def detect(self, image: Image) -> Keypoints: ...
     def detect_batch(self, images: Iterable[Image]) -> List[Keypoints]:
-        """Across CPU threads, or one after another on the GPU."""
+        """One after another, each on every CPU core (or on the GPU), the GIL released."""
 
 def gist(
     images: Union[Image, Sequence[Image]], backend: str = "auto", **settings: Any

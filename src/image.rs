@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
+
 use crate::error::{Error, Result};
 
 /// Largest side accepted by the loaders; larger images are refused with a clear error rather
@@ -25,6 +27,27 @@ pub struct Frame {
 impl Frame {
     /// Builds a frame from interleaved RGB bytes, checking the size.
     pub fn from_rgb(width: u32, height: u32, rgb: Vec<u8>) -> Result<Self> {
+        let mut frame = Self {
+            width: 0,
+            height: 0,
+            gray: Vec::new(),
+            rgb,
+        };
+        let rgb = std::mem::take(&mut frame.rgb);
+        frame.set_rgb_owned(width, height, rgb)?;
+        Ok(frame)
+    }
+
+    /// Refills this frame from interleaved RGB bytes, reusing its buffers: a camera loop (or
+    /// the Python bindings) converting frame after frame of one size allocates nothing.
+    pub fn set_rgb(&mut self, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+        let mut bytes = std::mem::take(&mut self.rgb);
+        bytes.clear();
+        bytes.extend_from_slice(rgb);
+        self.set_rgb_owned(width, height, bytes)
+    }
+
+    fn set_rgb_owned(&mut self, width: u32, height: u32, rgb: Vec<u8>) -> Result<()> {
         check_size("image", width, height)?;
         let n = width as usize * height as usize;
         if rgb.len() != 3 * n {
@@ -35,16 +58,22 @@ impl Frame {
                 reason: format!("expected {} RGB bytes, got {}", 3 * n, rgb.len()),
             });
         }
-        let gray = rgb
-            .chunks_exact(3)
-            .map(|p| (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32) / 255.0)
-            .collect();
-        Ok(Self {
-            width,
-            height,
-            gray,
-            rgb,
-        })
+        self.gray.resize(n, 0.0);
+        // Row blocks on all cores: converting a caller's buffer is part of every call from a
+        // camera loop or the Python bindings, not a one-off decode.
+        const BLOCK: usize = 16 * 1024;
+        self.gray
+            .par_chunks_mut(BLOCK)
+            .zip(rgb.par_chunks(3 * BLOCK))
+            .for_each(|(out, px)| {
+                for (g, p) in out.iter_mut().zip(px.chunks_exact(3)) {
+                    *g = (0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32) / 255.0;
+                }
+            });
+        self.width = width;
+        self.height = height;
+        self.rgb = rgb;
+        Ok(())
     }
 
     /// Builds a frame from a luminance plane in [0, 1]; the RGB bytes replicate it.
@@ -93,7 +122,11 @@ impl Frame {
             reason,
         };
         if rgb.len() != 3 * n {
-            return Err(bad(format!("expected {} RGB values, got {}", 3 * n, rgb.len())));
+            return Err(bad(format!(
+                "expected {} RGB values, got {}",
+                3 * n,
+                rgb.len()
+            )));
         }
         if let Some(i) = rgb.iter().position(|v| !v.is_finite()) {
             return Err(bad(format!("value {i} is not finite")));

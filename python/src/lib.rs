@@ -101,6 +101,13 @@ fn parse_backend(name: &str) -> PyResult<Backend> {
 /// A numpy image as a frame: uint8 or float32 (values in [0, 1]), shape (H, W) or (H, W, 3)
 /// in RGB order.
 fn frame_of(image: &Bound<'_, PyAny>) -> PyResult<Frame> {
+    let mut frame = Frame::from_rgb(1, 1, vec![0; 3]).map_err(py_err)?;
+    fill_frame(&mut frame, image)?;
+    Ok(frame)
+}
+
+/// [`frame_of`] into an existing frame, reusing its buffers when the image is RGB uint8.
+fn fill_frame(frame: &mut Frame, image: &Bound<'_, PyAny>) -> PyResult<()> {
     let shape_err = |shape: &[usize]| {
         PyValueError::new_err(format!(
             "image: expected shape (H, W) or (H, W, 3), got {shape:?}"
@@ -115,23 +122,33 @@ fn frame_of(image: &Bound<'_, PyAny>) -> PyResult<Frame> {
     };
     if let Ok(a) = image.extract::<PyReadonlyArrayDyn<'_, u8>>() {
         let (w, h, colour) = dims(a.shape())?;
-        let data: Vec<u8> = a.as_array().iter().copied().collect();
-        let rgb = if colour {
-            data
-        } else {
-            data.iter().flat_map(|&v| [v, v, v]).collect()
-        };
-        return Frame::from_rgb(w, h, rgb).map_err(py_err);
+        // One copy of a contiguous RGB array; an element walk only for strided views or grey.
+        return match (colour, a.as_slice()) {
+            (true, Ok(slice)) => frame.set_rgb(w, h, slice),
+            (true, Err(_)) => {
+                let rgb: Vec<u8> = a.as_array().iter().copied().collect();
+                frame.set_rgb(w, h, &rgb)
+            }
+            (false, _) => {
+                let rgb: Vec<u8> = a.as_array().iter().flat_map(|&v| [v, v, v]).collect();
+                frame.set_rgb(w, h, &rgb)
+            }
+        }
+        .map_err(py_err);
     }
     if let Ok(a) = image.extract::<PyReadonlyArrayDyn<'_, f32>>() {
         let (w, h, colour) = dims(a.shape())?;
-        let data: Vec<f32> = a.as_array().iter().copied().collect();
-        return if colour {
+        let data: Vec<f32> = match a.as_slice() {
+            Ok(slice) => slice.to_vec(),
+            Err(_) => a.as_array().iter().copied().collect(),
+        };
+        *frame = if colour {
             Frame::from_rgb_f32(w, h, &data)
         } else {
             Frame::from_gray(w, h, data)
         }
-        .map_err(py_err);
+        .map_err(py_err)?;
+        return Ok(());
     }
     let dtype = image
         .getattr("dtype")
@@ -235,6 +252,8 @@ impl Keypoints {
 #[pyclass(module = "steernav", frozen)]
 struct Detector {
     inner: Arc<CoreDetector>,
+    /// The last frame's buffers, refilled by the next call of the same size.
+    scratch: std::sync::Mutex<Option<Frame>>,
 }
 
 #[pymethods]
@@ -248,6 +267,7 @@ impl Detector {
         let inner = CoreDetector::new(&config, backend).map_err(py_err)?;
         Ok(Self {
             inner: Arc::new(inner),
+            scratch: std::sync::Mutex::new(None),
         })
     }
 
@@ -259,13 +279,25 @@ impl Detector {
 
     /// Keypoints of one image: uint8 or float32 in [0, 1], (H, W) or (H, W, 3) RGB.
     fn detect(&self, py: Python<'_>, image: &Bound<'_, PyAny>) -> PyResult<Keypoints> {
-        let frame = frame_of(image)?;
+        let cached = self
+            .scratch
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .take();
+        let mut frame = match cached {
+            Some(frame) => frame,
+            None => Frame::from_rgb(1, 1, vec![0; 3]).map_err(py_err)?,
+        };
+        fill_frame(&mut frame, image)?;
         let detector = Arc::clone(&self.inner);
-        let found = py.detach(move || detector.detect(&frame)).map_err(py_err)?;
-        Ok(Keypoints::new(py, &found))
+        let (found, frame) = py.detach(move || (detector.detect(&frame), frame));
+        *self.scratch.lock().unwrap_or_else(|e| e.into_inner()) = Some(frame);
+        Ok(Keypoints::new(py, &found.map_err(py_err)?))
     }
 
-    /// Keypoints of many images: across CPU threads, or one after another on the GPU.
+    /// Keypoints of many images, one after another: each detection already runs on every CPU
+    /// core (or on the GPU), and the detector's scratch planes are shared, so detecting
+    /// several frames at once would only make them wait for each other.
     fn detect_batch(&self, py: Python<'_>, images: &Bound<'_, PyAny>) -> PyResult<Vec<Keypoints>> {
         let frames = images
             .try_iter()?
@@ -274,11 +306,7 @@ impl Detector {
         let detector = Arc::clone(&self.inner);
         let found = py
             .detach(move || -> steernav_core::Result<Vec<Detection>> {
-                if detector.backend() == "gpu" {
-                    frames.iter().map(|f| detector.detect(f)).collect()
-                } else {
-                    frames.par_iter().map(|f| detector.detect(f)).collect()
-                }
+                frames.iter().map(|f| detector.detect(f)).collect()
             })
             .map_err(py_err)?;
         Ok(found.iter().map(|d| Keypoints::new(py, d)).collect())
