@@ -21,7 +21,8 @@ def rotate(image, degrees):
     h, w = image.shape[:2]
     m = cv2.getRotationMatrix2D((w / 2 - 0.5, h / 2 - 0.5), degrees, 1.0)
     cos, sin = abs(m[0, 0]), abs(m[0, 1])
-    nw, nh = int(np.ceil(w * cos + h * sin)), int(np.ceil(w * sin + h * cos))
+    # The tolerance keeps 90° and 180° canvases exact (sin 180° is 1.2e-16, not 0).
+    nw, nh = int(np.ceil(w * cos + h * sin - 1e-6)), int(np.ceil(w * sin + h * cos - 1e-6))
     m[0, 2] += (nw - w) / 2
     m[1, 2] += (nh - h) / 2
     rotated = cv2.warpAffine(image, m, (nw, nh), flags=cv2.INTER_LINEAR)
