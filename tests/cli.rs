@@ -394,9 +394,11 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
         String::from_utf8_lossy(&out.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for key in ["ate_rmse", "rpe_trans", "scale", "path_length", "matched"] {
+    for key in ["ate_rmse", "scale", "path_length", "matched"] {
         assert!(v[key].is_number(), "missing {key}: {v}");
     }
+    // 30 frames at 30 Hz span 0.97 s, less than the RPE's 1 s: null, not a meaningless 0.
+    assert!(v["rpe_trans"].is_null(), "{v}");
     assert_eq!(v["matched"], 30);
     // A calibration with zero focal length is refused, naming the field and the file.
     let bad = dir.path().join("bad.toml");
@@ -736,4 +738,86 @@ fn a_full_stdout_is_an_error_not_a_panic() {
             "{args:?}: {stderr}"
         );
     }
+}
+
+#[test]
+fn batch_names_unreadable_entries_and_leaves_its_own_output_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    std::fs::create_dir(&input).unwrap();
+    std::fs::copy(sample(), input.join("a.png")).unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(dir.path().join("nowhere.png"), input.join("dangling.png")).unwrap();
+    let out_dir = input.join("out");
+    let run = || {
+        steernav()
+            .args([
+                "batch",
+                "--backend",
+                "cpu",
+                "--draw",
+                "--max-keypoints",
+                "50",
+            ])
+            .arg(&input)
+            .arg("--out")
+            .arg(&out_dir)
+            .output()
+            .unwrap()
+    };
+    let first = run();
+    let stderr = String::from_utf8_lossy(&first.stderr);
+    assert!(first.status.success(), "{stderr}");
+    #[cfg(unix)]
+    assert!(
+        stderr.contains("dangling.png") && stderr.contains("skipped"),
+        "{stderr}"
+    );
+    // The second run finds the drawn PNG inside its input tree but does not take it for an
+    // input: only a.png, already done.
+    let second = run();
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert!(stderr.contains("0 detected, 1 skipped"), "{stderr}");
+}
+
+#[test]
+fn slam_eval_gives_no_rpe_for_a_span_shorter_than_its_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let traj = dir.path().join("t.txt");
+    let rows: String = (0..6)
+        .map(|k| {
+            format!(
+                "{} {} 0 {} 0 0 0 1\n",
+                0.1 * k as f64,
+                0.2 * k as f64,
+                0.05 * (k * k) as f64
+            )
+        })
+        .collect();
+    std::fs::write(&traj, rows).unwrap();
+    let out = steernav()
+        .args(["slam-eval", "--json"])
+        .arg(&traj)
+        .arg(&traj)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["rpe_trans"].is_null(), "{stdout}");
+    let out = steernav()
+        .arg("slam-eval")
+        .arg(&traj)
+        .arg(&traj)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("no RPE") && !stdout.contains("RPE 0"),
+        "{stdout}"
+    );
 }

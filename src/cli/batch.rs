@@ -29,21 +29,40 @@ pub fn is_image(path: &Path) -> bool {
         .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
 }
 
-/// Every image under `dir`, recursively, sorted by path.
-pub fn list_images(dir: &Path) -> Result<Vec<PathBuf>> {
+/// Every image under `dir`, recursively, sorted by path, leaving out the tree under `output`
+/// (a batch writing into its own input must not take its drawn PNGs for inputs on a re-run).
+/// Entries that cannot be read (a dangling symlink, a folder without permission) are named in
+/// a warning, not dropped in silence.
+pub fn list_images(dir: &Path, output: &Path) -> Result<Vec<PathBuf>> {
     if !dir.is_dir() {
         return Err(Error::Io {
             path: dir.to_path_buf(),
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "not a directory"),
         });
     }
-    let mut out: Vec<PathBuf> = walkdir::WalkDir::new(dir)
+    let output = output.canonicalize().ok();
+    let mut out = Vec::new();
+    let walk = walkdir::WalkDir::new(dir)
         .follow_links(true)
         .into_iter()
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_type().is_file() && is_image(e.path()))
-        .map(|e| e.into_path())
-        .collect();
+        .filter_entry(|e| {
+            output.is_none() || e.path().canonicalize().ok().as_deref() != output.as_deref()
+        });
+    for entry in walk {
+        match entry {
+            Ok(e) if e.file_type().is_file() && is_image(e.path()) => out.push(e.into_path()),
+            Ok(_) => {}
+            Err(e) => {
+                let path = e
+                    .path()
+                    .map_or_else(|| dir.display().to_string(), |p| p.display().to_string());
+                let reason = e
+                    .io_error()
+                    .map_or_else(|| e.to_string(), |io| io.to_string());
+                log::warn!("{path}: skipped: {reason}");
+            }
+        }
+    }
     out.sort();
     Ok(out)
 }
@@ -110,7 +129,7 @@ fn output_path(opts: &BatchOptions, image: &Path) -> PathBuf {
 /// Runs the batch; returns every entry (in input order). Failures of single images are in the
 /// entries, not errors; an error means the batch itself could not run (e.g. no input dir).
 pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
-    let images = list_images(&opts.input)?;
+    let images = list_images(&opts.input, &opts.output)?;
     std::fs::create_dir_all(&opts.output).map_err(|source| Error::Io {
         path: opts.output.clone(),
         source,

@@ -296,13 +296,15 @@ fn print_table(c: &Comparison) -> anyhow::Result<()> {
     );
     let row = |name: &str, s: &ModeSummary| -> anyhow::Result<()> {
         println!(
-            "{:<8} {:>8} {:>9.1}% {:>11} {:>11.2} m {:>12.1} s {:>17.3} m",
+            "{:<8} {:>8} {:>9.1}% {:>11} {:>13} {:>14} {:>17.3} m",
             name,
             s.episodes,
             100.0 * s.success_rate,
             s.collisions,
-            s.path_length,
-            s.time_to_goal,
+            s.path_length
+                .map_or("no success".into(), |m| format!("{m:.2} m")),
+            s.time_to_goal
+                .map_or("no success".into(), |t| format!("{t:.1} s")),
             s.position_error_std
         );
         Ok(())

@@ -107,7 +107,8 @@ pub struct SlamEvalCmd {
     /// Largest timestamp difference of a matched pair, seconds.
     #[arg(long, default_value_t = 0.02)]
     max_dt: f64,
-    /// Print {"ate_rmse", "rpe_trans", "scale", "path_length", "matched"} as JSON.
+    /// Print {"ate_rmse", "rpe_trans", "scale", "path_length", "matched"} as JSON (rpe_trans
+    /// is null when the matched poses span less than its 1 s interval).
     #[arg(long)]
     json: bool,
 }
@@ -347,12 +348,12 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         match trajectory::evaluate(&estimate, truth, 0.02) {
             Ok(e) => {
                 println!(
-                    "against {}: ATE {:.4} m RMSE ({:.2}% of the {:.2} m path), RPE {:.4} m over 1 s, scale {:.4}, {} poses matched",
+                    "against {}: ATE {:.4} m RMSE ({:.2}% of the {:.2} m path), {}, scale {:.4}, {} poses matched",
                     path.display(),
                     e.ate_rmse,
                     100.0 * e.ate_rmse / e.path_length.max(1e-12),
                     e.path_length,
-                    e.rpe_trans,
+                    e.rpe_text(),
                     e.scale,
                     e.matched
                 );
@@ -438,11 +439,11 @@ pub fn slam_eval(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string(&e)?);
     } else {
         println!(
-            "ATE RMSE {:.4} m ({:.2}% of the {:.3} m path), RPE {:.4} m over 1 s, scale {:.4}, {} poses matched",
+            "ATE RMSE {:.4} m ({:.2}% of the {:.3} m path), {}, scale {:.4}, {} poses matched",
             e.ate_rmse,
             100.0 * e.ate_rmse / e.path_length.max(1e-12),
             e.path_length,
-            e.rpe_trans,
+            e.rpe_text(),
             e.scale,
             e.matched
         );

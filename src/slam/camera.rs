@@ -108,6 +108,56 @@ impl PinholeCamera {
                 "image size must be positive",
             ));
         }
+        self.check_radial_distortion_is_monotonic()
+    }
+
+    /// The radial model r_d = r(1 + k1 r² + k2 r⁴ + k3 r⁶) must grow with r out to the image's
+    /// farthest corner, or two image radii map to one ray and undistortion has no answer; a
+    /// k1 of 1e308 (accepted as finite) gives an all-identity trajectory otherwise.
+    fn check_radial_distortion_is_monotonic(&self) -> Result<()> {
+        let corners = [
+            (0.0, 0.0),
+            (self.width as f64, 0.0),
+            (0.0, self.height as f64),
+            (self.width as f64, self.height as f64),
+        ];
+        let r_max = corners
+            .iter()
+            .map(|(u, v)| ((u - self.cx) / self.fx).hypot((v - self.cy) / self.fy))
+            .fold(0.0, f64::max);
+        let radial = |r: f64| {
+            let r2 = r * r;
+            r * (1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3)))
+        };
+        const STEPS: usize = 400;
+        let mut previous = 0.0;
+        for i in 1..=STEPS {
+            let r = r_max * i as f64 / STEPS as f64;
+            let rd = radial(r);
+            if !rd.is_finite() || rd <= previous {
+                return Err(Error::config(
+                    "camera.k1",
+                    format!("k1 = {}, k2 = {}, k3 = {}", self.k1, self.k2, self.k3),
+                    format!(
+                        "the radial distortion folds the image: it stops growing at {:.0}% of the way to the farthest corner",
+                        100.0 * r / r_max
+                    ),
+                ));
+            }
+            previous = rd;
+        }
+        // Monotonic but extreme (k1 = 1e308 still is): no real lens scales the corner's radius
+        // by more than a few times.
+        let factor = radial(r_max) / r_max.max(1e-12);
+        if !(0.2..=5.0).contains(&factor) {
+            return Err(Error::config(
+                "camera.k1",
+                format!("k1 = {}, k2 = {}, k3 = {}", self.k1, self.k2, self.k3),
+                format!(
+                    "the radial distortion scales the farthest corner's radius by {factor:.3e}, outside [0.2, 5]"
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -347,6 +397,26 @@ mod tests {
             p2: 1.76187114e-05,
             ..PinholeCamera::ideal(458.654, 457.296, 367.215, 248.375, 752, 480)
         }
+    }
+
+    #[test]
+    fn distortion_that_folds_the_image_is_refused() {
+        let mut cam = PinholeCamera::ideal(500.0, 500.0, 320.0, 240.0, 640, 480);
+        cam.k1 = -0.3;
+        cam.k2 = 0.1;
+        assert!(cam.validate().is_ok(), "a typical barrel lens");
+        cam.k1 = 1e308;
+        let e = cam.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("camera.k1") && e.contains("farthest corner"),
+            "{e}"
+        );
+        cam.k1 = -2.0;
+        cam.k2 = 0.0;
+        assert!(
+            cam.validate().is_err(),
+            "r(1 − 2r²) turns back inside the image"
+        );
     }
 
     #[test]

@@ -181,13 +181,25 @@ pub fn umeyama(
     (s, r, t)
 }
 
+impl TrajectoryError {
+    /// "RPE 0.0123 m over 1 s", or why there is none.
+    pub fn rpe_text(&self) -> String {
+        match self.rpe_trans {
+            Some(r) => format!("RPE {r:.4} m over 1 s"),
+            None => "no RPE (the matched poses span less than its 1 s interval)".into(),
+        }
+    }
+}
+
 /// The figures of `steernav slam-eval`.
 #[derive(Clone, Debug, Serialize)]
 pub struct TrajectoryError {
     /// RMSE of the positions after Sim(3) alignment, metres.
     pub ate_rmse: f64,
-    /// RMSE of the translation of relative motions over about one second, metres (estimate scaled).
-    pub rpe_trans: f64,
+    /// RMSE of the translation of relative motions over about one second, metres (estimate
+    /// scaled); `None` when the matched poses span less than one second, so that there is no
+    /// relative motion to measure (JSON `null`, never a meaningless 0).
+    pub rpe_trans: Option<f64>,
     /// The alignment's scale factor.
     pub scale: f64,
     /// Ground-truth path length over the matched poses, metres.
@@ -263,11 +275,7 @@ pub fn evaluate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Result<Trajec
         let _ = re;
         rpe.push((rg.transpose() * (te - tg)).norm_squared());
     }
-    let rpe_trans = if rpe.is_empty() {
-        0.0
-    } else {
-        (rpe.iter().sum::<f64>() / rpe.len() as f64).sqrt()
-    };
+    let rpe_trans = (!rpe.is_empty()).then(|| (rpe.iter().sum::<f64>() / rpe.len() as f64).sqrt());
     let path_length = dst.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
     Ok(TrajectoryError {
         ate_rmse: ate,
@@ -310,7 +318,7 @@ mod tests {
         }
         let err = evaluate(&estimate, &truth, 0.02).unwrap();
         assert!(err.ate_rmse < 1e-9, "{err:?}");
-        assert!(err.rpe_trans < 1e-9, "{err:?}");
+        assert!(err.rpe_trans.is_some_and(|r| r < 1e-9), "{err:?}");
         assert!((err.scale - 4.0).abs() < 1e-9);
         assert_eq!(err.matched, 50);
     }
@@ -333,6 +341,11 @@ mod tests {
         huge[3].position.x = 1e300;
         let message = evaluate(&moving, &huge, 0.02).unwrap_err().to_string();
         assert!(message.contains("not finite or beyond"), "{message}");
+        // Half a second of poses: an ATE, but no relative motion over 1 s to give an RPE.
+        let short = &moving[..6];
+        let e = evaluate(short, short, 0.02).unwrap();
+        assert_eq!(e.rpe_trans, None);
+        assert!(e.rpe_text().contains("less than its 1 s interval"));
     }
 
     #[test]

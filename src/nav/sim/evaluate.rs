@@ -28,9 +28,9 @@ pub struct ModeSummary {
     /// Episodes that ended in a collision.
     pub collisions: usize,
     /// Mean path length of the successful episodes, metres.
-    pub path_length: f64,
-    /// Mean time to goal of the successful episodes, seconds.
-    pub time_to_goal: f64,
+    pub path_length: Option<f64>,
+    /// Mean time to goal of the successful episodes, seconds; `None` when none succeeded.
+    pub time_to_goal: Option<f64>,
     /// Mean over episodes of the standard deviation of the distance to the start–goal line, m.
     pub position_error_std: f64,
 }
@@ -74,8 +74,11 @@ pub fn summarise(episodes: &[Episode]) -> ModeSummary {
             .iter()
             .filter(|e| e.outcome == Outcome::Collision)
             .count(),
-        path_length: reached.iter().map(|e| e.path_length as f64).sum::<f64>() / r,
-        time_to_goal: reached.iter().map(|e| e.time as f64).sum::<f64>() / r,
+        // Means over the successful episodes: undefined (JSON null), not 0, when none succeeded.
+        path_length: (!reached.is_empty())
+            .then(|| reached.iter().map(|e| e.path_length as f64).sum::<f64>() / r),
+        time_to_goal: (!reached.is_empty())
+            .then(|| reached.iter().map(|e| e.time as f64).sum::<f64>() / r),
         position_error_std: episodes
             .iter()
             .map(|e| e.position_error_std as f64)
