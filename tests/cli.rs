@@ -821,3 +821,73 @@ fn slam_eval_gives_no_rpe_for_a_span_shorter_than_its_interval() {
         "{stdout}"
     );
 }
+
+#[test]
+fn batch_reruns_draw_what_is_missing_keep_their_rows_and_refuse_a_second_writer() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    std::fs::create_dir(&input).unwrap();
+    std::fs::copy(sample(), input.join("a.png")).unwrap();
+    let out_dir = dir.path().join("out");
+    let run = |draw: bool| {
+        let mut cmd = steernav();
+        cmd.args(["batch", "--backend", "cpu", "--max-keypoints", "50"])
+            .arg(&input)
+            .arg("--out")
+            .arg(&out_dir);
+        if draw {
+            cmd.arg("--draw");
+        }
+        cmd.output().unwrap()
+    };
+    assert!(run(false).status.success());
+    assert!(!out_dir.join("a.png.png").exists());
+    // With --draw, an image done without its picture is done again.
+    let second = run(true);
+    assert!(String::from_utf8_lossy(&second.stderr).contains("1 detected"));
+    assert!(out_dir.join("a.png.png").exists());
+    // A re-run that skips everything keeps each row's figures from the JSON.
+    assert!(run(true).status.success());
+    let summary = std::fs::read_to_string(out_dir.join("summary.csv")).unwrap();
+    let row = summary.lines().nth(1).unwrap();
+    assert!(row.contains(",skipped,640,480,"), "{summary}");
+    // While another batch holds the folder, a second one refuses to start.
+    let lock = std::fs::File::create(out_dir.join(".steernav-batch.lock")).unwrap();
+    lock.lock().unwrap();
+    let refused = run(true);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success() && stderr.contains("another steernav batch"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn detect_keeps_both_outputs_of_inputs_sharing_a_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for folder in ["a", "b"] {
+        std::fs::create_dir(dir.path().join(folder)).unwrap();
+        std::fs::copy(sample(), dir.path().join(folder).join("img.png")).unwrap();
+    }
+    let out_dir = dir.path().join("o");
+    let out = steernav()
+        .args([
+            "detect",
+            "--backend",
+            "cpu",
+            "--max-keypoints",
+            "20",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .arg(dir.path().join("a/img.png"))
+        .arg(dir.path().join("b/img.png"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out_dir.join("a_img.json").exists() && out_dir.join("b_img.json").exists());
+}

@@ -85,8 +85,11 @@ pub enum Outcome {
         /// Wall-clock time of the detection.
         ms: f64,
     },
-    /// Its output existed and `force` was off.
-    Skipped,
+    /// Its output existed and `force` was off; the figures come from that output.
+    Skipped {
+        /// Width, height, keypoint count and backend read back from the existing JSON.
+        previous: Option<(u32, u32, usize, String)>,
+    },
     /// It could not be read, decoded or processed.
     Failed(String),
 }
@@ -134,6 +137,25 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
         path: opts.output.clone(),
         source,
     })?;
+    // One batch per output folder at a time: a second one would redo every image the first
+    // has not finished. The lock is the kernel's, so a killed batch releases it.
+    let lock_path = opts.output.join(".steernav-batch.lock");
+    let lock = std::fs::File::create(&lock_path).map_err(|source| Error::Io {
+        path: lock_path.clone(),
+        source,
+    })?;
+    if let Err(e) = lock.try_lock() {
+        return Err(Error::Io {
+            path: opts.output.clone(),
+            source: match e {
+                std::fs::TryLockError::WouldBlock => std::io::Error::new(
+                    std::io::ErrorKind::WouldBlock,
+                    "another steernav batch is writing into this folder",
+                ),
+                std::fs::TryLockError::Error(io) => io,
+            },
+        });
+    }
     let bar = if opts.progress {
         indicatif::ProgressBar::new(images.len() as u64)
     } else {
@@ -149,11 +171,15 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
     let todo: Vec<usize> = (0..images.len())
         .filter(|&i| {
             let out = output_path(opts, &images[i]);
-            if !opts.force && out.exists() {
+            // Done means the JSON exists, and the picture too when --draw asks for one.
+            let done = out.exists() && (!opts.draw || out.with_extension("png").exists());
+            if !opts.force && done {
                 entries[i] = Some(Entry {
                     image: images[i].clone(),
+                    outcome: Outcome::Skipped {
+                        previous: previous_figures(&out),
+                    },
                     output: out,
-                    outcome: Outcome::Skipped,
                 });
                 bar.inc(1);
                 false
@@ -210,6 +236,18 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
         summary_csv(&entries).as_bytes(),
     )?;
     Ok(entries)
+}
+
+/// The figures of an earlier run's JSON, so a re-run's summary keeps its rows whole.
+fn previous_figures(json: &Path) -> Option<(u32, u32, usize, String)> {
+    let text = std::fs::read_to_string(json).ok()?;
+    let record: ImageKeypoints = serde_json::from_str(&text).ok()?;
+    Some((
+        record.width,
+        record.height,
+        record.keypoints.len(),
+        record.backend,
+    ))
 }
 
 fn detect_one(
@@ -284,8 +322,17 @@ pub fn summary_csv(entries: &[Entry]) -> String {
                 format!("{ms:.2}"),
                 String::new(),
             ],
-            Outcome::Skipped => {
+            Outcome::Skipped { previous } => {
                 let mut row = vec![image, "skipped".into()];
+                if let Some((width, height, keypoints, backend)) = previous {
+                    row.extend([
+                        width.to_string(),
+                        height.to_string(),
+                        keypoints.to_string(),
+                        String::new(),
+                        backend.clone(),
+                    ]);
+                }
                 row.resize(9, String::new());
                 row
             }
@@ -330,7 +377,7 @@ pub fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
     let entries = run(&detector, &opts)?;
     let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
     let done = count(|o| matches!(o, Outcome::Done { .. }));
-    let skipped = count(|o| matches!(o, Outcome::Skipped));
+    let skipped = count(|o| matches!(o, Outcome::Skipped { .. }));
     let failed = count(|o| matches!(o, Outcome::Failed(_)));
     eprintln!(
         "{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed; summary in {}",

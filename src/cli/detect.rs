@@ -64,8 +64,9 @@ pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
     }
     let detector = cmd.detector.detector()?;
     let scales: Vec<f32> = detector.plan().scales.iter().map(|s| s.sigma_d).collect();
+    let names = output_names(&cmd.images);
     let mut failed = 0;
-    for path in &cmd.images {
+    for (path, name) in cmd.images.iter().zip(&names) {
         let run = || -> anyhow::Result<()> {
             let frame = Frame::load_limited(path, cmd.detector.max_pixels)?;
             let d = detector
@@ -79,14 +80,12 @@ pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
                 (record.to_json(), "json")
             };
             match &cmd.out {
-                Some(dir) => {
-                    write_atomic(&dir.join(format!("{}.{ext}", stem(path))), text.as_bytes())?
-                }
+                Some(dir) => write_atomic(&dir.join(format!("{name}.{ext}")), text.as_bytes())?,
                 None => println!("{}", text.trim_end()),
             }
             if cmd.draw {
                 let dir = cmd.out.clone().unwrap_or_else(|| PathBuf::from("."));
-                let png = dir.join(format!("{}_keypoints.png", stem(path)));
+                let png = dir.join(format!("{name}_keypoints.png"));
                 draw::write_png(&png, &frame, &record.keypoints, &scales)?;
                 eprintln!("wrote {}", png.display());
             }
@@ -106,4 +105,53 @@ pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
     } else {
         ExitCode::SUCCESS
     })
+}
+
+/// One output name per input, from its file stem; inputs that share a stem (`a/img.png`,
+/// `b/img.png`) are told apart by their folders, then by their position, so that no output
+/// overwrites another.
+fn output_names(images: &[PathBuf]) -> Vec<String> {
+    let stems: Vec<String> = images.iter().map(|p| stem(p)).collect();
+    let shared = |s: &String| stems.iter().filter(|t| *t == s).count() > 1;
+    let mut names: Vec<String> = images
+        .iter()
+        .zip(&stems)
+        .map(|(path, s)| {
+            if !shared(s) {
+                return s.clone();
+            }
+            let folder = path
+                .parent()
+                .and_then(|p| p.file_name())
+                .map(|f| f.to_string_lossy().into_owned());
+            folder.map_or_else(|| s.clone(), |f| format!("{f}_{s}"))
+        })
+        .collect();
+    let snapshot = names.clone();
+    for (i, name) in names.iter_mut().enumerate() {
+        if snapshot.iter().filter(|n| *n == name).count() > 1 {
+            name.push_str(&format!("_{}", i + 1));
+        }
+    }
+    names
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inputs_sharing_a_name_get_distinct_outputs() {
+        let paths: Vec<PathBuf> = ["a/img.png", "b/img.png", "c.png", "a/img.jpg"]
+            .iter()
+            .map(PathBuf::from)
+            .collect();
+        let names = output_names(&paths);
+        assert_eq!(names[2], "c");
+        let mut unique = names.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), names.len(), "{names:?}");
+        assert!(names[1] == "b_img", "{names:?}");
+    }
 }
