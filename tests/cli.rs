@@ -891,3 +891,54 @@ fn detect_keeps_both_outputs_of_inputs_sharing_a_name() {
     );
     assert!(out_dir.join("a_img.json").exists() && out_dir.join("b_img.json").exists());
 }
+
+#[cfg(unix)]
+#[test]
+fn slam_interrupted_by_sigterm_still_writes_the_map_and_the_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = dir.path().join("drive");
+    let synth = steernav()
+        .args(["slam-synth", "--motion", "drive", "--frames", "80"])
+        .arg(&seq)
+        .output()
+        .unwrap();
+    assert!(
+        synth.status.success(),
+        "{}",
+        String::from_utf8_lossy(&synth.stderr)
+    );
+    let out_dir = dir.path().join("out");
+    let mut child = steernav()
+        .args(["slam", "--backend", "cpu", "--calib"])
+        .arg(seq.join("calib.toml"))
+        .arg(&seq)
+        .arg("--out")
+        .arg(&out_dir)
+        .arg("--map")
+        .arg(out_dir.join("map.json"))
+        .arg("--plot")
+        .arg(out_dir.join("slam.png"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The trajectory is written frame by frame: signal once a few frames are done.
+    let traj = out_dir.join("trajectory.txt");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&traj).map_or(0, |t| t.lines().count()) < 4 {
+        assert!(started.elapsed().as_secs() < 120, "slam never got going");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let kill = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("interrupted after"), "{stderr}");
+    let frames = std::fs::read_to_string(&traj).unwrap().lines().count() - 1;
+    assert!(frames < 80, "stopped early: {frames} frames");
+    assert!(out_dir.join("map.json").exists() && out_dir.join("slam.png").exists());
+}

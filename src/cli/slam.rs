@@ -211,7 +211,29 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let mut reports: Vec<FrameReport> = Vec::new();
     let mut skipped = 0usize;
     let mut previous_odometry: Option<Pose> = None;
+    // SIGINT or SIGTERM stops after the current frame; the map, the figure and the
+    // evaluation of the frames done are still written.
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    {
+        let stop = std::sync::Arc::clone(&stop);
+        if let Err(e) =
+            ctrlc::set_handler(move || stop.store(true, std::sync::atomic::Ordering::SeqCst))
+        {
+            log::warn!("cannot catch SIGINT/SIGTERM ({e}); an interrupted run writes no map");
+        }
+    }
+    let mut interrupted = false;
     for item in frames {
+        if stop.load(std::sync::atomic::Ordering::SeqCst) {
+            interrupted = true;
+            bar.suspend(|| {
+                eprintln!(
+                    "interrupted after {} frames: writing the map, the figure and the evaluation of what was done",
+                    reports.len()
+                )
+            });
+            break;
+        }
         bar.inc(1);
         let frame = match Frame::load_limited(&item.path, cmd.detector.max_pixels) {
             Ok(f) => f,
@@ -366,7 +388,12 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         slam_figure(path, &estimated, aligned_truth.as_deref(), &map)?;
         println!("figure: {}", path.display());
     }
-    Ok(ExitCode::SUCCESS)
+    // 128 + SIGINT, as a shell reports an interrupted command.
+    Ok(if interrupted {
+        ExitCode::from(130)
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 /// Ground truth mapped into the estimate's frame by the inverse of the Sim(3) alignment.
