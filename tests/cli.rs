@@ -908,7 +908,7 @@ fn slam_interrupted_by_sigterm_still_writes_the_map_and_the_figure() {
         String::from_utf8_lossy(&synth.stderr)
     );
     let out_dir = dir.path().join("out");
-    let mut child = steernav()
+    let child = steernav()
         .args(["slam", "--backend", "cpu", "--calib"])
         .arg(seq.join("calib.toml"))
         .arg(&seq)
