@@ -209,6 +209,11 @@ impl Frame {
         );
         reader.limits(decode_limits(width, height));
         let img = reader.decode().map_err(image_err)?;
+        if format == image::ImageFormat::Jpeg {
+            if let Some(reason) = truncation(path) {
+                log::warn!("{name}: {reason}");
+            }
+        }
         Self::named(&name, &img)
     }
 
@@ -279,6 +284,29 @@ fn decode_limits(width: u32, height: u32) -> image::Limits {
     l.max_image_height = Some(height);
     l.max_alloc = Some((width as u64 * height as u64 * 8).max(1 << 20));
     l
+}
+
+/// Why an image file looks incomplete, if it does. A JPEG cut short still decodes (the missing
+/// part comes out grey) without an error from the decoder, so its end is checked here: the
+/// end-of-image marker must lie in its last 64 KiB (a 0xFF 0xD9 pair cannot occur inside the
+/// entropy-coded data, where 0xFF is always followed by 0x00).
+pub fn truncation(path: &Path) -> Option<String> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut head = [0u8; 3];
+    file.read_exact(&mut head).ok()?;
+    if head != [0xFF, 0xD8, 0xFF] {
+        return None;
+    }
+    let len = file.metadata().ok()?.len();
+    let tail_len = len.min(64 * 1024);
+    file.seek(SeekFrom::Start(len - tail_len)).ok()?;
+    let mut tail = Vec::with_capacity(tail_len as usize);
+    file.take(tail_len).read_to_end(&mut tail).ok()?;
+    let complete = tail.windows(2).any(|w| w == [0xFF, 0xD9]);
+    (!complete).then(|| {
+        "the JPEG ends without its end-of-image marker: the file is truncated, and the missing part decodes as grey".to_string()
+    })
 }
 
 /// Refuses empty images and images beyond [`MAX_SIDE`].

@@ -942,3 +942,46 @@ fn slam_interrupted_by_sigterm_still_writes_the_map_and_the_figure() {
     assert!(frames < 80, "stopped early: {frames} frames");
     assert!(out_dir.join("map.json").exists() && out_dir.join("slam.png").exists());
 }
+
+#[test]
+fn a_truncated_jpeg_is_named_and_counted_as_damaged() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    std::fs::create_dir(&input).unwrap();
+    let rgb = image::open(sample()).unwrap().to_rgb8();
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 90)
+        .encode_image(&rgb)
+        .unwrap();
+    std::fs::write(input.join("whole.jpg"), &jpeg).unwrap();
+    std::fs::write(input.join("cut.jpg"), &jpeg[..jpeg.len() / 3]).unwrap();
+    let out = steernav()
+        .args(["detect", "--backend", "cpu", "--max-keypoints", "20"])
+        .arg(input.join("cut.jpg"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("cut.jpg") && stderr.contains("truncated"),
+        "{stderr}"
+    );
+    let out_dir = dir.path().join("out");
+    let out = steernav()
+        .args(["batch", "--backend", "cpu", "--max-keypoints", "20"])
+        .arg(&input)
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("1 damaged"), "{stderr}");
+    let summary = std::fs::read_to_string(out_dir.join("summary.csv")).unwrap();
+    assert!(
+        summary.lines().any(|l| l.contains("cut.jpg,damaged,")),
+        "{summary}"
+    );
+    assert!(
+        summary.lines().any(|l| l.contains("whole.jpg,done,")),
+        "{summary}"
+    );
+}

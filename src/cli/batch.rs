@@ -84,6 +84,8 @@ pub enum Outcome {
         backend: &'static str,
         /// Wall-clock time of the detection.
         ms: f64,
+        /// Why the file looks damaged though it decoded (a truncated JPEG), if it does.
+        damaged: Option<String>,
     },
     /// Its output existed and `force` was off; the figures come from that output.
     Skipped {
@@ -292,6 +294,7 @@ fn detect_one(
         candidates,
         backend,
         ms,
+        damaged: steernav::image::truncation(image),
     })
 }
 
@@ -311,16 +314,17 @@ pub fn summary_csv(entries: &[Entry]) -> String {
                 candidates,
                 backend,
                 ms,
+                damaged,
             } => vec![
                 image,
-                "done".into(),
+                if damaged.is_some() { "damaged" } else { "done" }.into(),
                 width.to_string(),
                 height.to_string(),
                 keypoints.to_string(),
                 candidates.to_string(),
                 backend.to_string(),
                 format!("{ms:.2}"),
-                String::new(),
+                damaged.clone().unwrap_or_default(),
             ],
             Outcome::Skipped { previous } => {
                 let mut row = vec![image, "skipped".into()];
@@ -376,11 +380,25 @@ pub fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
     };
     let entries = run(&detector, &opts)?;
     let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
-    let done = count(|o| matches!(o, Outcome::Done { .. }));
+    let done = count(|o| matches!(o, Outcome::Done { damaged: None, .. }));
+    let damaged = count(|o| {
+        matches!(
+            o,
+            Outcome::Done {
+                damaged: Some(_),
+                ..
+            }
+        )
+    });
     let skipped = count(|o| matches!(o, Outcome::Skipped { .. }));
     let failed = count(|o| matches!(o, Outcome::Failed(_)));
     eprintln!(
-        "{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed; summary in {}",
+        "{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed{}; summary in {}",
+        if damaged > 0 {
+            format!(", {damaged} damaged (detected on a truncated file)")
+        } else {
+            String::new()
+        },
         opts.output.join("summary.csv").display()
     );
     Ok(if failed > 0 {
