@@ -207,8 +207,21 @@ impl Frame {
             BufReader::new(std::fs::File::open(path).map_err(io)?),
             format,
         );
-        reader.limits(decode_limits(width, height));
-        let img = reader.decode().map_err(image_err)?;
+        let limits = decode_limits(width, height);
+        let max_alloc = limits.max_alloc;
+        reader.limits(limits);
+        let img = reader.decode().map_err(|e| match e {
+            // The decoder's own words give neither the size nor the limit.
+            image::ImageError::Limits(_) => Error::Decode {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "{e}: the header says {width}x{height}, and decoding that may allocate at most {} bytes",
+                    max_alloc.unwrap_or(0)
+                ),
+                source: Some(Box::new(e)),
+            },
+            other => image_err(other),
+        })?;
         if format == image::ImageFormat::Jpeg {
             if let Some(reason) = truncation(path) {
                 log::warn!("{name}: {reason}");

@@ -276,3 +276,14 @@ fn config_errors_name_the_real_key() {
     let bare = DetectorConfig::from_toml_str("scales = 3\n").unwrap();
     assert_eq!(bare.scales, 3);
 }
+
+#[test]
+fn auto_never_takes_a_software_adapter() {
+    // In CI the only adapter is lavapipe: `auto` must run on the CPU there.
+    let detector = Detector::new(&DetectorConfig::default(), Backend::Auto).unwrap();
+    match steernav::gpu::GpuContext::shared() {
+        Ok(ctx) if ctx.auto_refusal().is_some() => assert_eq!(detector.backend(), "cpu"),
+        Ok(_) => assert_eq!(detector.backend(), "gpu"),
+        Err(_) => assert_eq!(detector.backend(), "cpu"),
+    }
+}
