@@ -31,9 +31,8 @@ impl Frame {
             width: 0,
             height: 0,
             gray: Vec::new(),
-            rgb,
+            rgb: Vec::new(),
         };
-        let rgb = std::mem::take(&mut frame.rgb);
         frame.set_rgb_owned(width, height, rgb)?;
         Ok(frame)
     }
@@ -168,16 +167,8 @@ impl Frame {
             path: path.to_path_buf(),
             source,
         };
-        let decode_err = |reason: String| Error::Decode {
-            path: path.to_path_buf(),
-            reason,
-            source: None,
-        };
-        let image_err = |e: image::ImageError| Error::Decode {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-            source: Some(Box::new(e)),
-        };
+        let decode_err = |reason: String| decode_error(path, reason);
+        let image_err = |e: image::ImageError| image_error(path, e);
         let mut file = std::fs::File::open(path).map_err(io)?;
         let mut head = Vec::with_capacity(64);
         (&mut file).take(64).read_to_end(&mut head).map_err(io)?;
@@ -252,16 +243,8 @@ impl Frame {
     /// Decodes an image held in memory; `path` is only used to name it in errors and to guess
     /// the format when the bytes do not reveal it.
     pub fn decode(path: &Path, bytes: &[u8]) -> Result<Self> {
-        let decode_err = |reason: String| Error::Decode {
-            path: path.to_path_buf(),
-            reason,
-            source: None,
-        };
-        let image_err = |e: image::ImageError| Error::Decode {
-            path: path.to_path_buf(),
-            reason: e.to_string(),
-            source: Some(Box::new(e)),
-        };
+        let decode_err = |reason: String| decode_error(path, reason);
+        let image_err = |e: image::ImageError| image_error(path, e);
         if bytes.is_empty() {
             return Err(decode_err("file is empty".into()));
         }
@@ -320,6 +303,24 @@ pub fn truncation(path: &Path) -> Option<String> {
     (!complete).then(|| {
         "the JPEG ends without its end-of-image marker: the file is truncated, and the missing part decodes as grey".to_string()
     })
+}
+
+/// An [`Error::Decode`] of `path` with a reason of ours.
+fn decode_error(path: &Path, reason: String) -> Error {
+    Error::Decode {
+        path: path.to_path_buf(),
+        reason,
+        source: None,
+    }
+}
+
+/// An [`Error::Decode`] of `path` keeping the decoder's error as its source.
+fn image_error(path: &Path, e: image::ImageError) -> Error {
+    Error::Decode {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+        source: Some(Box::new(e)),
+    }
 }
 
 /// Refuses empty images and images beyond [`MAX_SIDE`].

@@ -50,6 +50,8 @@ impl Settings {
     pub fn from_toml_str(text: &str) -> std::result::Result<Self, ConfigError> {
         let file: SettingsFile =
             toml::from_str(text).map_err(|e| ConfigError::from_toml(text, e))?;
+        // Parsed again untyped only to learn which tables the file names (a typed field cannot
+        // tell an absent table from one at its defaults); the text is a few lines.
         let tables: toml::Table =
             toml::from_str(text).map_err(|e| ConfigError::from_toml(text, e))?;
         file.detector

@@ -53,3 +53,8 @@ pub fn compute_pipeline(
         cache: None,
     })
 }
+
+/// The pipeline of a stage with one shader and one entry point, `main`.
+pub fn single_main(device: &wgpu::Device, (name, source): (&str, &str)) -> wgpu::ComputePipeline {
+    compute_pipeline(device, &shader_module(device, name, source), "main")
+}

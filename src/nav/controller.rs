@@ -185,10 +185,7 @@ impl Controller {
     ) -> Result<Command> {
         let s = self.stimulus(scan, pose, target, camera)?;
         self.field.step(&s, self.cfg.field_steps)?;
-        let field = std::mem::take(&mut self.field.u);
-        let command = self.command(&field, scan, pose, distance);
-        self.field.u = field;
-        Ok(command)
+        Ok(self.command(self.field.field(0), scan, pose, distance))
     }
 
     /// The field's stimulus S on the allocentric ring (neuron i is the world heading 2πi/N, so

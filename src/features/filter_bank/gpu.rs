@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use crate::features::harris::gpu::HarrisPipelines;
 use crate::gpu::layout::gpu_struct;
-use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
+use crate::gpu::pipelines::{single_main, PipelineSet};
 use crate::gpu::util::{bind, groups_2d, read_storage, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
 
@@ -20,12 +20,7 @@ struct SteerPipeline(wgpu::ComputePipeline);
 
 impl PipelineSet for SteerPipeline {
     fn build(device: &wgpu::Device) -> Self {
-        let (name, source) = SHADERS[0];
-        Self(compute_pipeline(
-            device,
-            &shader_module(device, name, source),
-            "main",
-        ))
+        Self(single_main(device, SHADERS[0]))
     }
 }
 use crate::error::Result;
