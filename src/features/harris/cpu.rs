@@ -11,18 +11,33 @@ use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::Candidate;
 use crate::simd::axpy;
 
-/// Response planes, kept between frames of the same size.
+/// Response bands, kept between frames of the same size.
 #[derive(Default)]
 struct Workspace {
     width: usize,
     height: usize,
-    responses: Vec<Vec<f32>>,
+    bands: Vec<ScaleBand>,
 }
+
+/// Rows `[first_row, first_row + rows)` of one scale's grid, for every orientation (layout
+/// `[θ][row][i]`).
+#[derive(Default)]
+struct ScaleBand {
+    first_row: usize,
+    rows: usize,
+    data: Vec<f32>,
+}
+
+/// Bytes of response rows the CPU backend holds at once. The suppression runs over bands of
+/// image rows, so a whole 12-orientation, 5-scale stack — 2.9 GB at 24 MP — never exists at
+/// once; frames up to about 2 MP at the defaults (1920×1080) fit in one band and pay no halo.
+const RESPONSE_BUDGET_BYTES: usize = 256 << 20;
 
 /// The CPU backend of the Harris stage; reuses its buffers across frames of one size.
 pub struct CpuHarris {
     plan: HarrisPlan,
     workspace: Mutex<Workspace>,
+    response_budget: usize,
 }
 
 /// Wall-clock time of the CPU Harris stage's two parts.
@@ -49,6 +64,7 @@ impl CpuHarris {
         Self {
             plan,
             workspace: Mutex::new(Workspace::default()),
+            response_budget: RESPONSE_BUDGET_BYTES,
         }
     }
 
@@ -85,68 +101,118 @@ impl CpuHarris {
 
     /// Harris responses R(σ_s, θ_n) of every scale and orientation.
     pub fn responses(&self, gray: &[f32], width: usize, height: usize) -> ResponseStack {
-        let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
-        self.compute(&mut ws, gray, width, height);
-        ResponseStack {
-            responses: ws.responses.clone(),
-            grids: self
-                .plan
-                .scales
-                .iter()
-                .map(|sc| sc.grid(width, height))
-                .collect(),
-        }
+        let plan = &self.plan;
+        let terms = tensor_terms(plan);
+        let grids: Vec<(usize, usize)> = plan
+            .scales
+            .iter()
+            .map(|sc| sc.grid(width, height))
+            .collect();
+        let responses = grids
+            .iter()
+            .enumerate()
+            .map(|(s, &(gw, gh))| {
+                let mut plane = vec![0.0; gw * gh * plan.orientations.len()];
+                scale_responses(plan, &terms, s, gray, width, height, 0..gh, &mut plane);
+                plane
+            })
+            .collect();
+        ResponseStack { responses, grids }
     }
 
     /// Candidates surviving non-maximum suppression, sorted strongest first, the threshold
     /// finally used (raised ×4 until at most `candidate_capacity` survive, as on the GPU) and
     /// the stage's timings.
+    ///
+    /// Responses are computed and suppressed one band of image rows at a time (each band with
+    /// the halo of rows its suppression reads), so memory is bounded by
+    /// `RESPONSE_BUDGET_BYTES` (256 MiB) rather than by the image; the candidates are those of the
+    /// whole-image suppression, bit for bit.
     pub fn candidates(
         &self,
         gray: &[f32],
         width: usize,
         height: usize,
     ) -> (Vec<Candidate>, f32, CpuTimings) {
-        let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
-        let t0 = std::time::Instant::now();
-        self.compute(&mut ws, gray, width, height);
-        let t1 = std::time::Instant::now();
-        let mut threshold = self.plan.config.threshold;
-        loop {
-            let mut found = suppress(&self.plan, &ws.responses, width, height, threshold);
-            if found.len() <= self.plan.config.candidate_capacity {
-                crate::features::sort_candidates(&mut found);
-                let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
-                let timings = CpuTimings {
-                    responses_ms: ms(t1 - t0),
-                    nms_ms: ms(t1.elapsed()),
-                };
-                return (found, threshold, timings);
-            }
-            threshold = crate::features::raised_threshold(threshold);
-        }
-    }
-
-    fn compute(&self, ws: &mut Workspace, gray: &[f32], width: usize, height: usize) {
         let plan = &self.plan;
-        if ws.width != width || ws.height != height || ws.responses.len() != plan.scales.len() {
+        let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
+        if ws.width != width || ws.height != height || ws.bands.len() != plan.scales.len() {
             *ws = Workspace {
                 width,
                 height,
-                responses: plan
-                    .scales
-                    .iter()
-                    .map(|sc| {
-                        let (gw, gh) = sc.grid(width, height);
-                        vec![0.0; gw * gh * plan.orientations.len()]
-                    })
-                    .collect(),
+                bands: plan.scales.iter().map(|_| ScaleBand::default()).collect(),
             };
         }
         let terms = tensor_terms(plan);
-        for s in 0..plan.scales.len() {
-            scale_responses(plan, &terms, s, gray, width, height, &mut ws.responses[s]);
+        let grids: Vec<(usize, usize)> = plan
+            .scales
+            .iter()
+            .map(|sc| sc.grid(width, height))
+            .collect();
+        let max_step = plan
+            .scales
+            .iter()
+            .map(|sc| sc.step as usize)
+            .max()
+            .unwrap_or(1);
+        // Bytes of responses per image row, over all scales and orientations.
+        let row_bytes: usize = grids
+            .iter()
+            .zip(&plan.scales)
+            .map(|(&(gw, _), sc)| gw * plan.orientations.len() * 4 / sc.step as usize)
+            .sum::<usize>()
+            .max(1);
+        // A multiple of every scale's step, so bands start on every grid's rows.
+        let band_rows = (self.response_budget / row_bytes).max(4 * max_step) / max_step * max_step;
+        // Rows a band's suppression reads beyond its own: ±1 grid row of its scale, and the 3×3
+        // around the nearest sample of the adjacent scales (±1.5 of their steps).
+        let halo = 2 * max_step + 1;
+        let (mut responses_time, mut nms_time) = (Default::default(), Default::default());
+        let mut threshold = plan.config.threshold;
+        let mut found: Vec<Candidate> = Vec::new();
+        for y0 in (0..height).step_by(band_rows) {
+            let y1 = (y0 + band_rows).min(height);
+            let t0 = std::time::Instant::now();
+            for (s, band) in ws.bands.iter_mut().enumerate() {
+                let (gw, gh) = grids[s];
+                let g = plan.scales[s].step as usize;
+                let first = y0.saturating_sub(halo) / g;
+                let last = ((y1 + halo) / g + 1).min(gh);
+                band.first_row = first;
+                band.rows = last - first;
+                band.data
+                    .resize(band.rows * gw * plan.orientations.len(), 0.0);
+                scale_responses(
+                    plan,
+                    &terms,
+                    s,
+                    gray,
+                    width,
+                    height,
+                    first..last,
+                    &mut band.data,
+                );
+            }
+            let t1 = std::time::Instant::now();
+            found.extend(suppress(plan, &ws.bands, &grids, y0..y1, threshold));
+            // A threshold the partial list already overflows would be raised for the whole
+            // list too, so raising it now only keeps the list small.
+            while found.len() > plan.config.candidate_capacity {
+                threshold = crate::features::raised_threshold(threshold);
+                found.retain(|c| c.response > threshold);
+            }
+            responses_time += t1 - t0;
+            nms_time += t1.elapsed();
         }
+        let t2 = std::time::Instant::now();
+        crate::features::sort_candidates(&mut found);
+        nms_time += t2.elapsed();
+        let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+        let timings = CpuTimings {
+            responses_ms: ms(responses_time),
+            nms_ms: ms(nms_time),
+        };
+        (found, threshold, timings)
     }
 }
 
@@ -189,7 +255,10 @@ const BAND_PIXEL_ROWS: usize = 48;
 /// filters the image into the derivative planes D_k at the grid's samples, forms their
 /// products, blurs them with the window on the grid (columns, then rows) and evaluates R for
 /// every orientation, all in buffers that stay in cache. The arithmetic is that of the
-/// GPU's passes (same taps and clamping; folded sums).
+/// GPU's passes (same taps and clamping; folded sums). Only `grid_rows` are computed,
+/// into `out` laid out `[θ][row − grid_rows.start][i]`; every row's value is the same whatever the
+/// range.
+#[allow(clippy::too_many_arguments)]
 fn scale_responses(
     plan: &HarrisPlan,
     terms: &TensorTerms,
@@ -197,12 +266,13 @@ fn scale_responses(
     gray: &[f32],
     width: usize,
     height: usize,
+    grid_rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) {
     let scale = &plan.scales[s];
     let step = scale.step as usize;
     let (gw, gh) = scale.grid(width, height);
-    let plane = gw * gh;
+    let plane = gw * grid_rows.len();
     let count = scale.derivatives.len();
     let products = plan.products.len();
     let rw = scale.window.radius();
@@ -213,12 +283,14 @@ fn scale_responses(
         let sy = y.clamp(0, height as isize - 1) as usize;
         &gray[sy * width..(sy + 1) * width]
     };
-    (0..gh.div_ceil(band_rows))
+    assert!(grid_rows.end <= gh && out.len() >= plane * terms.len());
+    (0..grid_rows.len().div_ceil(band_rows))
         .into_par_iter()
         .for_each_init(BandScratch::default, |b, band| {
             let out_ptr = &out_ptr;
             // Grid rows [j0, j1) of output need grid rows [jl, jh] of products.
-            let (j0, j1) = (band * band_rows, ((band + 1) * band_rows).min(gh));
+            let j0 = grid_rows.start + band * band_rows;
+            let j1 = (j0 + band_rows).min(grid_rows.end);
             let jl = j0.saturating_sub(rw);
             let jh = (j1 - 1 + rw).min(gh - 1);
             let rows = jh - jl + 1;
@@ -290,7 +362,10 @@ fn scale_responses(
                     // SAFETY: band `band` writes only grid rows [j0, j1) of each orientation plane,
                     // which no other band touches, and `out` outlives the parallel loop.
                     let r = unsafe {
-                        std::slice::from_raw_parts_mut(out_ptr.0.add(t * plane + j * gw), gw)
+                        std::slice::from_raw_parts_mut(
+                            out_ptr.0.add(t * plane + (j - grid_rows.start) * gw),
+                            gw,
+                        )
                     };
                     let (mxx, rest) = b.m.split_at(gw);
                     let (mxy, myy) = rest.split_at(gw);
@@ -309,60 +384,56 @@ unsafe impl Sync for SharedOut {}
 
 /// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each, around the
 /// nearest sample of their grid), threshold, border margin and the 3×3 quadratic fit
-/// ([`peak_offset`]) for the sub-pixel position. Candidates come out in pixel coordinates.
-pub fn suppress(
+/// ([`peak_offset`]) for the sub-pixel position, for the samples whose pixel row lies in
+/// `pixel_rows`. `bands[s]` must hold every row of scale s that these samples' suppression
+/// reads. Candidates come out in pixel coordinates.
+fn suppress(
     plan: &HarrisPlan,
-    responses: &[Vec<f32>],
-    width: usize,
-    height: usize,
+    bands: &[ScaleBand],
+    grids: &[(usize, usize)],
+    pixel_rows: std::ops::Range<usize>,
     threshold: f32,
 ) -> Vec<Candidate> {
     let scales = plan.scales.len();
-    let grids: Vec<(usize, usize)> = plan
-        .scales
-        .iter()
-        .map(|sc| sc.grid(width, height))
-        .collect();
     let tasks: Vec<(usize, usize)> = (0..scales)
         .flat_map(|s| (0..plan.orientations.len()).map(move |t| (s, t)))
         .collect();
+    // Row `y` of orientation `t` of scale `sc`, which the band holds.
+    let row = |sc: usize, t: usize, y: usize| {
+        let (w, _) = grids[sc];
+        let band = &bands[sc];
+        let o = (t * band.rows + y - band.first_row) * w;
+        &band.data[o..o + w]
+    };
     tasks
         .par_iter()
         .flat_map_iter(|&(s, t)| {
             let (gw, gh) = grids[s];
             let g = plan.scales[s].step as usize;
             let m = plan.scales[s].grid_margin();
-            let plane_of = |sc: usize| {
-                let (w, h) = grids[sc];
-                &responses[sc][t * w * h..(t + 1) * w * h]
-            };
-            let cur = plane_of(s);
             // Is v at least every value of scale sc's 3×3 neighbourhood around pixel (px, py)?
             let across = |sc: usize, px: usize, py: usize, v: f32| {
                 let (w, h) = grids[sc];
                 let gs = plan.scales[sc].step as usize;
                 let (cx, cy) = ((px + gs / 2) / gs, (py + gs / 2) / gs);
-                let other = plane_of(sc);
                 // The centre first: the same point at the adjacent scale rejects most samples.
                 [4usize, 0, 1, 2, 3, 5, 6, 7, 8].iter().all(|&i| {
                     let nx = (cx + i % 3).saturating_sub(1).min(w - 1);
                     let ny = (cy + i / 3).saturating_sub(1).min(h - 1);
-                    other[ny * w + nx] <= v
+                    row(sc, t, ny)[nx] <= v
                 })
             };
             let mut out = Vec::new();
             if gw <= 2 * m || gh <= 2 * m {
                 return out.into_iter();
             }
+            let first = pixel_rows.start.div_ceil(g).max(m);
+            let end = pixel_rows.end.div_ceil(g).min(gh - m);
             let mut maxima = vec![false; gw];
-            for y in m..gh - m {
+            for y in first..end {
                 // Strict maxima of the 3×3 same-scale neighbourhood above the threshold, in a
                 // branch-free pass the compiler vectorises; the rare survivors get the rest.
-                let (up, mid, down) = (
-                    &cur[(y - 1) * gw..y * gw],
-                    &cur[y * gw..(y + 1) * gw],
-                    &cur[(y + 1) * gw..(y + 2) * gw],
-                );
+                let (up, mid, down) = (row(s, t, y - 1), row(s, t, y), row(s, t, y + 1));
                 for x in m..gw - m {
                     let v = mid[x];
                     maxima[x] = (v > threshold)
@@ -439,6 +510,47 @@ pub fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::features::DetectorConfig;
+
+    #[test]
+    fn banded_suppression_matches_the_whole_image_bit_for_bit() {
+        let (w, h) = (203, 157);
+        let image = crate::synth::textured_scene(w as u32, h as u32, 3);
+        let plan = HarrisPlan::new(&DetectorConfig::default());
+        let whole = CpuHarris::new(plan.clone());
+        let (expected, t_expected, _) = whole.candidates(&image.gray, w, h);
+        assert!(expected.len() > 100, "{}", expected.len());
+        // Budgets from the smallest band (4 × the coarsest step, many bands) upwards; a band
+        // edge then falls on every kind of row.
+        for budget in [1, 40_000, 150_000, 400_000] {
+            let banded = CpuHarris {
+                response_budget: budget,
+                ..CpuHarris::new(plan.clone())
+            };
+            let (found, t, _) = banded.candidates(&image.gray, w, h);
+            assert_eq!(t, t_expected);
+            assert!(
+                found == expected,
+                "budget {budget}: {} vs {}",
+                found.len(),
+                expected.len()
+            );
+            // The workspace is reused for the next frame of the same size.
+            assert!(banded.candidates(&image.gray, w, h).0 == expected);
+        }
+        // Raising the threshold while bands accumulate gives the whole-image result too.
+        let mut small = DetectorConfig::default();
+        small.candidate_capacity = expected.len() / 3;
+        let plan = HarrisPlan::new(&small);
+        let (expected, t_expected, _) = CpuHarris::new(plan.clone()).candidates(&image.gray, w, h);
+        let banded = CpuHarris {
+            response_budget: 1,
+            ..CpuHarris::new(plan)
+        };
+        let (found, t, _) = banded.candidates(&image.gray, w, h);
+        assert!(t > DetectorConfig::default().threshold && t == t_expected);
+        assert!(found == expected);
+    }
 
     /// Samples f(x, y) = 10 − (a(x−x0)² + 2b(x−x0)(y−y0) + c(y−y0)²) on the 3×3 grid.
     fn cap(x0: f32, y0: f32, a: f32, b: f32, c: f32) -> [[f32; 3]; 3] {
