@@ -539,8 +539,10 @@ mod tests {
             assert!(banded.candidates(&image.gray, w, h).0 == expected);
         }
         // Raising the threshold while bands accumulate gives the whole-image result too.
-        let mut small = DetectorConfig::default();
-        small.candidate_capacity = expected.len() / 3;
+        let small = DetectorConfig {
+            candidate_capacity: expected.len() / 3,
+            ..DetectorConfig::default()
+        };
         let plan = HarrisPlan::new(&small);
         let (expected, t_expected, _) = CpuHarris::new(plan.clone()).candidates(&image.gray, w, h);
         let banded = CpuHarris {
