@@ -23,11 +23,20 @@ struct Params {
     _pad: u32,
 }
 
+// The threshold is max(threshold, relative * the frame's strongest response), as in
+// DetectorConfig::effective_threshold; a re-run after an overflow passes the raised threshold
+// with relative = 0.
 struct Settings {
     threshold: f32,
     capacity: u32,
-    _pad0: u32,
-    _pad1: u32,
+    relative: f32,
+    _pad: u32,
+}
+
+// Shared with harris_response.wgsl.
+struct Stats {
+    count: atomic<u32>,
+    peak_bits: atomic<u32>,
 }
 
 struct Candidate {
@@ -42,7 +51,7 @@ struct Candidate {
 @group(0) @binding(2) var<storage, read> prev: array<f32>;
 @group(0) @binding(3) var<storage, read> cur: array<f32>;
 @group(0) @binding(4) var<storage, read> next: array<f32>;
-@group(0) @binding(5) var<storage, read_write> counter: atomic<u32>;
+@group(0) @binding(5) var<storage, read_write> stats: Stats;
 @group(0) @binding(6) var<storage, read_write> candidates: array<Candidate>;
 
 fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
@@ -109,11 +118,13 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let w = params.width;
+    let threshold = max(settings.threshold,
+                        settings.relative * bitcast<f32>(atomicLoad(&stats.peak_bits)));
     for (var t = 0u; t < params.orientations; t++) {
         let base = t * params.plane;
         let i = base + gid.y * w + gid.x;
         let v = cur[i];
-        if (!(v > settings.threshold)) {
+        if (!(v > threshold)) {
             continue;
         }
         var keep = true;
@@ -133,7 +144,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         if (keep) {
             let o = peak_offset(i, w);
-            let slot = atomicAdd(&counter, 1u);
+            let slot = atomicAdd(&stats.count, 1u);
             if (slot < settings.capacity) {
                 let g = f32(params.step);
                 candidates[slot] = Candidate((f32(gid.x) + o.x) * g, (f32(gid.y) + o.y) * g, v, (params.scale << 16u) | t);

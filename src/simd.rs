@@ -78,3 +78,25 @@ mod tests {
         assert_eq!(x, y);
     }
 }
+
+/// The largest value of `values`, or `floor` when none exceeds it. Eight independent lanes
+/// with a compare-and-select each: the form the compiler turns into vector max instructions
+/// (a running `f32::max` is a serial chain it cannot vectorise, and cost the Harris response
+/// pass 85% at 1920×1080).
+#[inline]
+pub fn max_or(values: &[f32], floor: f32) -> f32 {
+    let mut lanes = [floor; 8];
+    let mut chunks = values.chunks_exact(8);
+    for chunk in &mut chunks {
+        for (lane, &v) in lanes.iter_mut().zip(chunk) {
+            *lane = if v > *lane { v } else { *lane };
+        }
+    }
+    let tail = chunks
+        .remainder()
+        .iter()
+        .fold(floor, |m, &v| if v > m { v } else { m });
+    lanes
+        .into_iter()
+        .fold(tail, |m, v| if v > m { v } else { m })
+}

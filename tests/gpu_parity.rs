@@ -115,7 +115,9 @@ fn candidate_lists_match_cpu() {
         c_run.candidates,
         c_run.threshold,
     );
-    assert_eq!(gt, ct);
+    // The relative threshold follows each backend's strongest response, which agree to the
+    // responses' tolerance.
+    assert!((gt - ct).abs() <= 1e-4 * ct, "thresholds {gt} vs {ct}");
     assert!(c.len() > 100, "{} candidates", c.len());
     // The same maxima (scale, orientation, position within 0.01 px, response within 1e-3
     // relative) for all but near-ties; NMS of nearly equal neighbours may flip.
@@ -200,7 +202,10 @@ fn candidate_overflow_raises_the_threshold_identically() {
         c_run.candidates,
         c_run.threshold,
     );
-    assert!(gt > 0.0 && gt == ct, "thresholds {gt} vs {ct}");
+    assert!(
+        gt > 0.0 && (gt - ct).abs() <= 1e-4 * ct,
+        "thresholds {gt} vs {ct}"
+    );
     assert!(gc.len() <= 64 && cc.len() <= 64 && !cc.is_empty());
     assert!(
         (gc.len() as i64 - cc.len() as i64).abs() <= 2,

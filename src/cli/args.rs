@@ -108,9 +108,13 @@ pub struct DetectorFlags {
     /// How detections of all orientations and scales are merged [default: covariant].
     #[arg(long, value_parser = choice::<MergeMode>(MergeMode::NAMES))]
     pub merge: Option<MergeMode>,
-    /// Minimum scale-normalised Harris response of a candidate [default: 1e-8].
+    /// Absolute floor of a candidate's scale-normalised Harris response [default: 1e-12].
     #[arg(long, value_name = "R")]
     pub threshold: Option<f32>,
+    /// A candidate's response must exceed this fraction of the frame's strongest response;
+    /// 0 leaves only --threshold [default: 0.005].
+    #[arg(long, value_name = "F")]
+    pub relative_threshold: Option<f32>,
 }
 
 impl DetectorFlags {
@@ -133,6 +137,9 @@ impl DetectorFlags {
         }
         if let Some(v) = self.threshold {
             cfg.threshold = v;
+        }
+        if let Some(v) = self.relative_threshold {
+            cfg.relative_threshold = v;
         }
         cfg.validate()?;
         Ok(cfg)

@@ -46,10 +46,11 @@ fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
         )
     });
     format!(
-        "{}: {} keypoints from {} candidates on {} (harris {:.1} ms{gpu}, merge {:.1} ms, descriptors {:.1} ms); keypoints per scale {}",
+        "{}: {} keypoints from {} candidates above {:.3e} on {} (harris {:.1} ms{gpu}, merge {:.1} ms, descriptors {:.1} ms); keypoints per scale {}",
         image.display(),
         d.keypoints.len(),
         d.candidates,
+        d.threshold,
         d.backend,
         t.harris_ms,
         t.merge_ms,

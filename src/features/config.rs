@@ -73,8 +73,16 @@ pub struct DetectorConfig {
     pub gamma: f32,
     /// Harris constant k of eq 8. Default 0.04.
     pub harris_k: f32,
-    /// Minimum scale-normalised Harris response of a candidate. Default 1e-8.
+    /// Absolute floor of the scale-normalised Harris response of a candidate. Default 1e-12,
+    /// below the responses that 8-bit quantisation noise gives, so that the relative threshold
+    /// decides on any textured image.
     pub threshold: f32,
+    /// Relative threshold: a candidate's response must exceed this fraction of the frame's
+    /// strongest response (taken in the response pass itself), so the detector keeps its
+    /// keypoints on blurred, dim and low-contrast images, where responses fall with the fourth
+    /// power of contrast. The threshold applied is max(threshold, relative_threshold ×
+    /// strongest). 0 turns it off. Default 0.005.
+    pub relative_threshold: f32,
     /// Kernels are truncated at this many standard deviations. Default 4.0: at 3σ the
     /// square support of the separable derivative kernels cut off enough tail to make their
     /// responses measurably less rotation-invariant.
@@ -105,7 +113,8 @@ impl Default for DetectorConfig {
             rank_normalization: 0.5,
             gamma: 1.5,
             harris_k: 0.04,
-            threshold: 1e-8,
+            threshold: 1e-12,
+            relative_threshold: 0.005,
             truncate: 4.0,
             merge: MergeMode::Covariant,
             merge_radius: 2.0,
@@ -186,6 +195,13 @@ impl DetectorConfig {
         if !self.threshold.is_finite() || self.threshold < 0.0 {
             return bad("threshold", self.threshold, "must be a finite number >= 0");
         }
+        if !self.relative_threshold.is_finite() || !(0.0..=1.0).contains(&self.relative_threshold) {
+            return bad(
+                "relative_threshold",
+                self.relative_threshold,
+                "must be finite, in [0, 1]",
+            );
+        }
         if !(1..=MAX_ORIENTATIONS).contains(&self.orientations) {
             return bad(
                 "orientations",
@@ -244,6 +260,12 @@ impl DetectorConfig {
         cfg.validate()
             .map_err(|e| ConfigError::invalid("detector", e))?;
         Ok(cfg)
+    }
+
+    /// The threshold applied to a frame whose strongest response is `strongest` (before any
+    /// raise for an overflowing candidate list). Both backends compute it this way, in f32.
+    pub fn effective_threshold(&self, strongest: f32) -> f32 {
+        self.threshold.max(self.relative_threshold * strongest)
     }
 
     /// Differentiation scale σ_D of detection scale `s`.

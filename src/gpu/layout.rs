@@ -100,8 +100,10 @@ pub(crate) fn check_as<T: WgslStruct>(source: &str, name: &str) {
                 .find(|n| Some(*n) == m.name.as_deref())
                 .unwrap_or("(a member the Rust struct lacks)"),
             offset: m.offset as usize,
+            // An atomic has its scalar's layout; the Rust side reads it as that scalar.
             ty: match module.types[m.ty].inner {
-                naga::TypeInner::Scalar(naga::Scalar { kind, width: 4 }) => match kind {
+                naga::TypeInner::Scalar(naga::Scalar { kind, width: 4 })
+                | naga::TypeInner::Atomic(naga::Scalar { kind, width: 4 }) => match kind {
                     naga::ScalarKind::Uint => "u32",
                     naga::ScalarKind::Sint => "i32",
                     naga::ScalarKind::Float => "f32",

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use super::plan::{harris_response, HarrisPlan};
 use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::Candidate;
-use crate::simd::axpy;
+use crate::simd::{axpy, max_or};
 
 /// Response bands, kept between frames of the same size.
 #[derive(Default)]
@@ -168,7 +168,14 @@ impl CpuHarris {
         // around the nearest sample of the adjacent scales (±1.5 of their steps).
         let halo = 2 * max_step + 1;
         let (mut responses_time, mut nms_time) = (Default::default(), Default::default());
-        let mut threshold = plan.config.threshold;
+        let config = &plan.config;
+        let capacity = config.candidate_capacity;
+        // The strongest response so far; the final one is at least this, so candidates below
+        // the threshold it gives can be dropped as the bands come.
+        let mut strongest = 0.0f32;
+        // Candidates at or below this are dropped: more than `capacity` exceeded it, so the
+        // final threshold is at least it (see `overflows`).
+        let mut capacity_floor = f32::NEG_INFINITY;
         let mut found: Vec<Candidate> = Vec::new();
         for y0 in (0..height).step_by(band_rows) {
             let y1 = (y0 + band_rows).min(height);
@@ -182,7 +189,7 @@ impl CpuHarris {
                 band.rows = last - first;
                 band.data
                     .resize(band.rows * gw * plan.orientations.len(), 0.0);
-                scale_responses(
+                let peak = scale_responses(
                     plan,
                     &terms,
                     s,
@@ -192,19 +199,32 @@ impl CpuHarris {
                     first..last,
                     &mut band.data,
                 );
+                strongest = strongest.max(peak);
             }
             let t1 = std::time::Instant::now();
-            found.extend(suppress(plan, &ws.bands, &grids, y0..y1, threshold));
-            // A threshold the partial list already overflows would be raised for the whole
-            // list too, so raising it now only keeps the list small.
-            while found.len() > plan.config.candidate_capacity {
-                threshold = crate::features::raised_threshold(threshold);
-                found.retain(|c| c.response > threshold);
+            let floor = config.effective_threshold(strongest);
+            found.retain(|c| c.response > floor);
+            found.extend(suppress(plan, &ws.bands, &grids, y0..y1, floor));
+            if found.len() > capacity {
+                let (_, &mut kth, _) = found
+                    .select_nth_unstable_by(capacity, |a, b| b.response.total_cmp(&a.response));
+                capacity_floor = capacity_floor.max(kth.response);
+                found.retain(|c| c.response > capacity_floor);
             }
             responses_time += t1 - t0;
             nms_time += t1.elapsed();
         }
         let t2 = std::time::Instant::now();
+        // As on the GPU: the relative threshold, raised ×4 while more than `capacity`
+        // candidates exceed it. Below `capacity_floor`, more than `capacity` did.
+        let mut threshold = config.effective_threshold(strongest);
+        let overflows = |t: f32, found: &[Candidate]| {
+            t < capacity_floor || found.iter().filter(|c| c.response > t).count() > capacity
+        };
+        while overflows(threshold, &found) {
+            threshold = crate::features::raised_threshold(threshold);
+        }
+        found.retain(|c| c.response > threshold);
         crate::features::sort_candidates(&mut found);
         nms_time += t2.elapsed();
         let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
@@ -257,7 +277,8 @@ const BAND_PIXEL_ROWS: usize = 48;
 /// every orientation, all in buffers that stay in cache. The arithmetic is that of the
 /// GPU's passes (same taps and clamping; folded sums). Only `grid_rows` are computed,
 /// into `out` laid out `[θ][row − grid_rows.start][i]`; every row's value is the same whatever the
-/// range.
+/// range. Returns the strongest response computed (0 when none is positive): the maximum the
+/// relative threshold needs, fused into the pass.
 #[allow(clippy::too_many_arguments)]
 fn scale_responses(
     plan: &HarrisPlan,
@@ -268,7 +289,7 @@ fn scale_responses(
     height: usize,
     grid_rows: std::ops::Range<usize>,
     out: &mut [f32],
-) {
+) -> f32 {
     let scale = &plan.scales[s];
     let step = scale.step as usize;
     let (gw, gh) = scale.grid(width, height);
@@ -286,7 +307,8 @@ fn scale_responses(
     assert!(grid_rows.end <= gh && out.len() >= plane * terms.len());
     (0..grid_rows.len().div_ceil(band_rows))
         .into_par_iter()
-        .for_each_init(BandScratch::default, |b, band| {
+        .map_init(BandScratch::default, |b, band| {
+            let mut peak = 0.0f32;
             let out_ptr = &out_ptr;
             // Grid rows [j0, j1) of output need grid rows [jl, jh] of products.
             let j0 = grid_rows.start + band * band_rows;
@@ -372,9 +394,12 @@ fn scale_responses(
                     for (i, r) in r.iter_mut().enumerate() {
                         *r = harris_response(mxx[i], mxy[i], myy[i], k);
                     }
+                    peak = max_or(r, peak);
                 }
             }
-        });
+            peak
+        })
+        .reduce(|| 0.0, f32::max)
 }
 
 /// The response planes' base pointer, shared by the chunks that write disjoint ranges of it.

@@ -149,8 +149,16 @@ gpu_struct! {
     struct NmsSettings as "Settings" {
         threshold: f32,
         capacity: u32,
-        _pad0: u32,
-        _pad1: u32,
+        relative: f32,
+        _pad: u32,
+    }
+}
+
+gpu_struct! {
+    /// The candidate count and the bits of the strongest response (both u32 atomics).
+    struct Stats as "Stats" {
+        count: u32,
+        peak_bits: u32,
     }
 }
 
@@ -351,7 +359,7 @@ impl GpuHarris {
             .map(|&(gw, gh)| storage(device, "responses", (gw * gh) as u64 * 4 * n as u64))
             .collect();
         let capacity = plan.config.candidate_capacity as u64;
-        let counter = storage(device, "counter", 4);
+        let counter = storage(device, "count and strongest response", 8);
         let candidates = storage(device, "candidates", capacity * 16);
         let queries = self.ctx.timestamps.then(|| {
             let count = 8 * plan.scales.len() as u32;
@@ -372,7 +380,7 @@ impl GpuHarris {
                 staging(device, "timestamps", count as u64 * 8),
             )
         });
-        let counter_staging = staging(device, "counter readback", 4);
+        let counter_staging = staging(device, "count and strongest response readback", 8);
         let candidate_staging = staging(device, "candidate readback", capacity * 16);
         let nms_settings = uniform(
             device,
@@ -380,8 +388,8 @@ impl GpuHarris {
             &NmsSettings {
                 threshold: plan.config.threshold,
                 capacity: capacity as u32,
-                _pad0: 0,
-                _pad1: 0,
+                relative: plan.config.relative_threshold,
+                _pad: 0,
             },
         );
         let jobs = |label: &str, list: Vec<Job>| storage_init(device, label, &list);
@@ -520,7 +528,13 @@ impl GpuHarris {
                     response: bind(
                         device,
                         &pipes.response,
-                        &[&response_params, &self.weights, &prod, &responses[s]],
+                        &[
+                            &response_params,
+                            &self.weights,
+                            &prod,
+                            &responses[s],
+                            &counter,
+                        ],
                     ),
                     nms: bind(
                         device,
@@ -566,6 +580,8 @@ impl GpuHarris {
         let pipes = self.ctx.pipelines::<HarrisPipelines>();
         let count = self.plan.derivative_count() as u32;
         let products = self.plan.products.len() as u32;
+        // The strongest response starts at 0 (bits of +0.0).
+        enc.clear_buffer(&f.counter, 4, Some(4));
         for (s, g) in f.scales.iter().enumerate().take(last + 1) {
             let stamp = |i: u32| {
                 f.queries
@@ -619,7 +635,7 @@ impl GpuHarris {
 
     fn encode_nms(&self, enc: &mut wgpu::CommandEncoder, f: &FrameResources) {
         let pipes = self.ctx.pipelines::<HarrisPipelines>();
-        enc.clear_buffer(&f.counter, 0, None);
+        enc.clear_buffer(&f.counter, 0, Some(4));
         for (s, g) in f.scales.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("nms"),
@@ -644,12 +660,13 @@ impl GpuHarris {
             .write_buffer(&f.gray, 0, bytemuck::cast_slice(gray));
     }
 
-    fn set_threshold(&self, f: &FrameResources, threshold: f32) {
+    /// Sets the suppression's threshold: max(threshold, relative × strongest response).
+    fn set_threshold(&self, f: &FrameResources, threshold: f32, relative: f32) {
         let settings = NmsSettings {
             threshold,
             capacity: self.plan.config.candidate_capacity as u32,
-            _pad0: 0,
-            _pad1: 0,
+            relative,
+            _pad: 0,
         };
         self.ctx
             .queue
@@ -670,8 +687,8 @@ impl GpuHarris {
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
         self.upload(f, gray);
-        let mut threshold = self.plan.config.threshold;
-        self.set_threshold(f, threshold);
+        let config = &self.plan.config;
+        self.set_threshold(f, config.threshold, config.relative_threshold);
         let mut enc = device.create_command_encoder(&Default::default());
         self.encode_responses(&mut enc, f, self.plan.scales.len() - 1, false);
         self.encode_nms(&mut enc, f);
@@ -680,7 +697,8 @@ impl GpuHarris {
             enc.copy_buffer_to_buffer(resolve, 0, stage, 0, None);
         }
         queue.submit([enc.finish()]);
-        let mut count = read_count(device, f)?;
+        let (mut count, strongest) = read_stats(device, f)?;
+        let mut threshold = config.effective_threshold(strongest);
         let timings = match &f.queries {
             Some((_, _, stage)) => Some(self.timings(&read_staging(device, stage, stage.size())?)),
             None => None,
@@ -688,11 +706,11 @@ impl GpuHarris {
         let capacity = self.plan.config.candidate_capacity;
         while count > capacity {
             threshold = raised_threshold(threshold);
-            self.set_threshold(f, threshold);
+            self.set_threshold(f, threshold, 0.0);
             let mut enc = device.create_command_encoder(&Default::default());
             self.encode_nms(&mut enc, f);
             queue.submit([enc.finish()]);
-            count = read_count(device, f)?;
+            count = read_stats(device, f)?.0;
         }
         let bytes = count as u64 * 16;
         let mut enc = device.create_command_encoder(&Default::default());
@@ -773,9 +791,11 @@ impl GpuHarris {
     }
 }
 
-fn read_count(device: &wgpu::Device, f: &FrameResources) -> Result<usize> {
-    let raw = read_staging(device, &f.counter_staging, 4)?;
-    Ok(u32::from_le_bytes([raw[0], raw[1], raw[2], raw[3]]) as usize)
+/// The candidate count and the strongest response of the last submission.
+fn read_stats(device: &wgpu::Device, f: &FrameResources) -> Result<(usize, f32)> {
+    let raw = read_staging(device, &f.counter_staging, 8)?;
+    let stats: Stats = bytemuck::pod_read_unaligned(&raw[..8]);
+    Ok((stats.count as usize, f32::from_bits(stats.peak_bits)))
 }
 
 #[cfg(test)]
@@ -792,6 +812,7 @@ mod layout_tests {
         check::<ResponseParams>(response);
         check::<NmsParams>(nms);
         check::<NmsSettings>(nms);
+        check::<Stats>(nms);
         check::<Candidate>(nms);
     }
 }
