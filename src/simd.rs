@@ -61,24 +61,6 @@ unsafe fn axpy_avx2(acc: &mut [f32], src: &[f32], w: f32) {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn dispatched_loops_match_the_plain_ones() {
-        let a: Vec<f32> = (0..37).map(|i| i as f32 * 0.5).collect();
-        let b: Vec<f32> = (0..37).map(|i| 3.0 - i as f32).collect();
-        let (mut x, mut y) = (vec![1.0f32; 37], vec![1.0f32; 37]);
-        fold_into(&mut x, &a, &b, 0.25, -1.0);
-        fold_into_plain(&mut y, &a, &b, 0.25, -1.0);
-        assert_eq!(x, y);
-        axpy(&mut x, &a, 2.0);
-        axpy_plain(&mut y, &a, 2.0);
-        assert_eq!(x, y);
-    }
-}
-
 /// The largest value of `values`, or `floor` when none exceeds it. Eight independent lanes
 /// with a compare-and-select each: the form the compiler turns into vector max instructions
 /// (a running `f32::max` is a serial chain it cannot vectorise, and cost the Harris response
@@ -99,4 +81,22 @@ pub fn max_or(values: &[f32], floor: f32) -> f32 {
     lanes
         .into_iter()
         .fold(tail, |m, v| if v > m { v } else { m })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dispatched_loops_match_the_plain_ones() {
+        let a: Vec<f32> = (0..37).map(|i| i as f32 * 0.5).collect();
+        let b: Vec<f32> = (0..37).map(|i| 3.0 - i as f32).collect();
+        let (mut x, mut y) = (vec![1.0f32; 37], vec![1.0f32; 37]);
+        fold_into(&mut x, &a, &b, 0.25, -1.0);
+        fold_into_plain(&mut y, &a, &b, 0.25, -1.0);
+        assert_eq!(x, y);
+        axpy(&mut x, &a, 2.0);
+        axpy_plain(&mut y, &a, 2.0);
+        assert_eq!(x, y);
+    }
 }
