@@ -23,7 +23,11 @@ class Keypoints:
     response: npt.NDArray[np.float32]
     """(K,): strongest scale-normalised Harris response of the cluster."""
     descriptor: npt.NDArray[np.float32]
-    """(K, 5): entropies (bits) at 16, 32, 64, 128, 256 colours."""
+    """(K, L): L = 128 steered responses in the keypoint's frame (unit length) for
+    descriptor="steered", the default; L = 5 entropies (bits) at 16 … 256 colours for
+    descriptor="entropy"."""
+    descriptor_kind: str
+    """"steered" or "entropy"."""
     backend: str
     """"cpu" or "gpu": where the detection ran."""
     def __len__(self) -> int: ...

@@ -21,6 +21,10 @@ pub struct ImageKeypoints {
     pub height: u32,
     /// "gpu" or "cpu".
     pub backend: String,
+    /// The descriptor's name: "steered" or "entropy".
+    pub descriptor: String,
+    /// Values per descriptor.
+    pub descriptor_length: usize,
     /// The keypoints, strongest first.
     pub keypoints: Vec<Keypoint>,
 }
@@ -37,6 +41,8 @@ impl ImageKeypoints {
             width: frame.width,
             height: frame.height,
             backend: detection.backend.to_string(),
+            descriptor: detection.descriptor.as_str().to_string(),
+            descriptor_length: detection.descriptor.length(),
             keypoints: detection.keypoints,
         }
     }
@@ -51,11 +57,11 @@ impl ImageKeypoints {
         let header = ["x", "y", "scale", "angle", "response"]
             .into_iter()
             .map(String::from)
-            .chain(DESCRIPTOR_COLUMNS.iter().map(|c| c.to_string()));
+            .chain(descriptor_columns(&self.descriptor, self.descriptor_length));
         let rows = self.keypoints.iter().map(|k| {
             [k.x, k.y, k.scale, k.angle, k.response]
                 .into_iter()
-                .chain(k.descriptor)
+                .chain(k.descriptor.iter().copied())
                 .map(|v| v.to_string())
                 .collect::<Vec<_>>()
         });
@@ -87,8 +93,16 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
-/// The keypoint CSV's descriptor columns: the entropy at 16 … 256 colours.
-const DESCRIPTOR_COLUMNS: [&str; 5] = ["h16", "h32", "h64", "h128", "h256"];
+/// The keypoint CSV's descriptor columns: the entropy at 16 … 256 colours, or d0, d1, … .
+fn descriptor_columns(name: &str, len: usize) -> Vec<String> {
+    if name == "entropy" {
+        ["h16", "h32", "h64", "h128", "h256"]
+            .map(String::from)
+            .to_vec()
+    } else {
+        (0..len).map(|i| format!("d{i}")).collect()
+    }
+}
 
 /// Records as CSV text, quoted where a field needs it (by the `csv` crate, so that paths with
 /// commas or quotes survive a round trip through any CSV reader).

@@ -174,9 +174,12 @@ struct Keypoints {
     /// (K,) float32: strongest Harris response of the cluster.
     #[pyo3(get)]
     response: Py<PyArray1<f32>>,
-    /// (K, 5) float32: the entropy descriptor.
+    /// (K, L) float32: the descriptors (L = 128 for "steered", 5 for "entropy").
     #[pyo3(get)]
     descriptor: Py<PyArray2<f32>>,
+    /// The descriptor's name: "steered" or "entropy".
+    #[pyo3(get)]
+    descriptor_kind: &'static str,
     /// "cpu" or "gpu": where the detection ran.
     #[pyo3(get)]
     backend: &'static str,
@@ -193,7 +196,8 @@ impl Keypoints {
                 d.keypoints[i].y
             }
         });
-        let descriptor = Array2::from_shape_fn((k, 5), |(i, c)| d.keypoints[i].descriptor[c]);
+        let length = d.descriptor.length();
+        let descriptor = Array2::from_shape_fn((k, length), |(i, c)| d.keypoints[i].descriptor[c]);
         let column = |f: fn(&steernav_core::Keypoint) -> f32| {
             Array1::from_iter(d.keypoints.iter().map(f))
                 .into_pyarray(py)
@@ -205,6 +209,7 @@ impl Keypoints {
             angle: column(|k| k.angle),
             response: column(|k| k.response),
             descriptor: descriptor.into_pyarray(py).unbind(),
+            descriptor_kind: d.descriptor.as_str(),
             backend: d.backend,
             len: k,
         }

@@ -53,7 +53,10 @@ def test_detect_matches_the_cli(sample, sample_file):
     assert np.allclose(ours.scale, [k["scale"] for k in theirs], atol=1e-4)
     assert np.allclose(ours.angle, [k["angle"] for k in theirs], atol=1e-4)
     assert np.allclose(ours.descriptor, [k["descriptor"] for k in theirs], atol=1e-4)
-    assert ours.xy.dtype == np.float32 and ours.descriptor.shape == (len(ours), 5)
+    assert ours.xy.dtype == np.float32 and ours.descriptor.shape == (len(ours), 128)
+    assert ours.descriptor_kind == "steered"
+    paper = steernav.Detector(backend="cpu", descriptor="entropy").detect(sample)
+    assert paper.descriptor.shape == (len(paper), 5) and paper.descriptor_kind == "entropy"
 
 
 def test_gist_matches_the_cli(sample, sample_file):

@@ -7,7 +7,7 @@ use std::str::FromStr;
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
-use steernav::features::{BasisOrder, MergeMode};
+use steernav::features::{BasisOrder, DescriptorKind, MergeMode};
 use steernav::settings::Settings;
 use steernav::{Backend, Detector, DetectorConfig};
 
@@ -108,6 +108,10 @@ pub struct DetectorFlags {
     /// How detections of all orientations and scales are merged [default: covariant].
     #[arg(long, value_parser = choice::<MergeMode>(MergeMode::NAMES))]
     pub merge: Option<MergeMode>,
+    /// Descriptor of every keypoint: steered (128 steered responses in the keypoint's frame,
+    /// for matching) or entropy (the paper's five colour entropies) [default: steered].
+    #[arg(long, value_parser = choice::<DescriptorKind>(DescriptorKind::NAMES))]
+    pub descriptor: Option<DescriptorKind>,
     /// Absolute floor of a candidate's scale-normalised Harris response [default: 1e-12].
     #[arg(long, value_name = "R")]
     pub threshold: Option<f32>,
@@ -137,6 +141,9 @@ impl DetectorFlags {
         }
         if let Some(v) = self.threshold {
             cfg.threshold = v;
+        }
+        if let Some(v) = self.descriptor {
+            cfg.descriptor = v;
         }
         if let Some(v) = self.relative_threshold {
             cfg.relative_threshold = v;

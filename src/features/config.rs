@@ -41,6 +41,29 @@ pub enum MergeMode {
 
 named_variants!(MergeMode { Covariant => "covariant", KmeansPp => "kmeans-pp" });
 
+/// Which descriptor each keypoint carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DescriptorKind {
+    /// 128 steered first-order responses in the keypoint's own frame, for matching
+    /// ([`crate::features::steered`]).
+    Steered,
+    /// The paper's five colour entropies (section 2.3, eqs 9–10).
+    Entropy,
+}
+
+named_variants!(DescriptorKind { Steered => "steered", Entropy => "entropy" });
+
+impl DescriptorKind {
+    /// Number of values per keypoint.
+    pub fn length(self) -> usize {
+        match self {
+            DescriptorKind::Steered => crate::features::steered::STEERED_LEN,
+            DescriptorKind::Entropy => 5,
+        }
+    }
+}
+
 /// All parameters of the detector; `Default` gives the documented defaults.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -98,6 +121,9 @@ pub struct DetectorConfig {
     pub candidate_capacity: usize,
     /// Seed of the random starts of `kmeans-pp`. Default 7.
     pub seed: u64,
+    /// The descriptor each keypoint carries. Default steered (matchable under rotation and
+    /// light changes); `entropy` is the paper's.
+    pub descriptor: DescriptorKind,
 }
 
 impl Default for DetectorConfig {
@@ -121,6 +147,7 @@ impl Default for DetectorConfig {
             max_keypoints: 500,
             candidate_capacity: 1 << 17,
             seed: 7,
+            descriptor: DescriptorKind::Steered,
         }
     }
 }
@@ -141,6 +168,8 @@ impl DetectorConfig {
         Self {
             orientations: 6,
             scales: 3,
+            relative_threshold: 0.001,
+            descriptor: DescriptorKind::Entropy,
             ..Self::default()
         }
     }

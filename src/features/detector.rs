@@ -8,11 +8,12 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::config::DetectorConfig;
+use super::config::{DescriptorKind, DetectorConfig};
 use super::descriptor::describe;
 use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
+use super::steered::describe_steered;
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
 use crate::features::harris::{GpuHarris, GpuTimings};
@@ -76,6 +77,8 @@ pub struct Detection {
     pub scale_histogram: Vec<usize>,
     /// "gpu" or "cpu".
     pub backend: &'static str,
+    /// The descriptor the keypoints carry.
+    pub descriptor: DescriptorKind,
     /// Timings.
     pub timings: StageTimings,
 }
@@ -216,15 +219,25 @@ impl Detector {
         for c in &clusters {
             scale_histogram[c.scale_index] += 1;
         }
+        let kind = self.plan.config.descriptor;
+        let (w, h) = (frame.width as usize, frame.height as usize);
         let keypoints = clusters
             .par_iter()
-            .map(|c| Keypoint {
-                x: c.x,
-                y: c.y,
-                scale: self.plan.scales[c.scale_index].sigma_d,
-                angle: self.plan.orientations[c.orientation_index],
-                response: c.response,
-                descriptor: describe(frame, c.x, c.y),
+            .map(|c| {
+                let scale = self.plan.scales[c.scale_index].sigma_d;
+                Keypoint {
+                    x: c.x,
+                    y: c.y,
+                    scale,
+                    angle: self.plan.orientations[c.orientation_index],
+                    response: c.response,
+                    descriptor: match kind {
+                        DescriptorKind::Steered => {
+                            describe_steered(&frame.gray, w, h, c.x, c.y, scale).values
+                        }
+                        DescriptorKind::Entropy => describe(frame, c.x, c.y).to_vec(),
+                    },
+                }
             })
             .collect();
         let t3 = Instant::now();
@@ -235,6 +248,7 @@ impl Detector {
             threshold,
             scale_histogram,
             backend,
+            descriptor: kind,
             timings: StageTimings {
                 harris_ms: ms(t0, t1),
                 merge_ms: ms(t1, t2),

@@ -9,10 +9,11 @@ pub mod filter_bank;
 pub mod harris;
 pub mod merge;
 pub mod steerable;
+pub mod steered;
 
 use serde::{Deserialize, Serialize};
 
-pub use config::{BasisOrder, DetectorConfig, MergeMode};
+pub use config::{BasisOrder, DescriptorKind, DetectorConfig, MergeMode};
 pub use detector::{Backend, Detection, Detector, HarrisRun};
 
 crate::gpu::layout::gpu_struct! {
@@ -76,6 +77,7 @@ pub struct Keypoint {
     pub angle: f32,
     /// Strongest Harris response among the members.
     pub response: f32,
-    /// Entropies (bits) of the 20×20 patch quantised to 16, 32, 64, 128, 256 colours (eq 10).
-    pub descriptor: [f32; 5],
+    /// The descriptor named by [`Detection::descriptor`]: 128 steered responses (unit length)
+    /// or the entropies (bits) of the 20×20 patch quantised to 16 … 256 colours (eq 10).
+    pub descriptor: Vec<f32>,
 }
