@@ -27,8 +27,16 @@ fn detect_prints_the_design_json_for_one_image() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let obj = v.as_object().unwrap();
     let keys: Vec<&str> = obj.keys().map(String::as_str).collect();
-    assert_eq!(keys.len(), 5);
-    for k in ["image", "width", "height", "backend", "keypoints"] {
+    assert_eq!(keys.len(), 7);
+    for k in [
+        "image",
+        "width",
+        "height",
+        "backend",
+        "descriptor",
+        "descriptor_length",
+        "keypoints",
+    ] {
         assert!(obj.contains_key(k), "missing {k}");
     }
     assert_eq!(
@@ -52,7 +60,9 @@ fn detect_prints_the_design_json_for_one_image() {
         fields,
         ["angle", "descriptor", "response", "scale", "x", "y"]
     );
-    assert_eq!(kps[0]["descriptor"].as_array().unwrap().len(), 5);
+    assert_eq!(v["descriptor"], "steered");
+    assert_eq!(v["descriptor_length"], 128);
+    assert_eq!(kps[0]["descriptor"].as_array().unwrap().len(), 128);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("keypoints per scale"), "{stderr}");
 }
@@ -64,7 +74,8 @@ fn detect_writes_files_and_pictures_for_several_images() {
     std::fs::copy(sample(), &second).unwrap();
     let out_dir = dir.path().join("out");
     let out = steernav()
-        .args(["detect", "--backend", "cpu", "--csv", "--draw", "--out"])
+        .args(["detect", "--backend", "cpu", "--csv", "--draw"])
+        .args(["--descriptor", "entropy", "--out"])
         .arg(&out_dir)
         .arg(sample())
         .arg(&second)

@@ -19,7 +19,8 @@ pub struct DetectCmd {
     images: Vec<PathBuf>,
     #[command(flatten)]
     detector: DetectorArgs,
-    /// Write CSV (x,y,scale,angle,response,d0..d4 per keypoint) instead of the keypoint JSON.
+    /// Write CSV (x,y,scale,angle,response and the descriptor's columns, d0..d127 or
+    /// h16..h256, per keypoint) instead of the keypoint JSON.
     #[arg(long)]
     csv: bool,
     /// Write one file per image (<name>.json or .csv) into DIR instead of stdout.

@@ -72,7 +72,42 @@ pub fn render(frame: &Frame, keypoints: &[Keypoint], scales: &[f32]) -> image::R
 
 /// Renders and writes a PNG (atomically: a temporary file renamed into place).
 pub fn write_png(path: &Path, frame: &Frame, keypoints: &[Keypoint], scales: &[f32]) -> Result<()> {
-    let img = render(frame, keypoints, scales);
+    write_image(path, &render(frame, keypoints, scales))
+}
+
+/// Colours of verified and rejected matches.
+const INLIER: [u8; 3] = [40, 230, 60];
+const OUTLIER: [u8; 3] = [255, 40, 40];
+
+/// One match to draw: its point in each image and whether it is an inlier.
+pub type MatchEnds = ((f32, f32), (f32, f32), bool);
+
+/// The two frames side by side (top-aligned) with a line per match, inliers green and
+/// outliers red, and a small circle at each end.
+pub fn render_matches(first: &Frame, second: &Frame, ends: &[MatchEnds]) -> image::RgbImage {
+    let (w1, w2) = (first.width, second.width);
+    let height = first.height.max(second.height);
+    let mut img = image::RgbImage::new(w1 + w2, height);
+    for (frame, x0) in [(first, 0), (second, w1)] {
+        let view = image::RgbImage::from_raw(frame.width, frame.height, frame.rgb.clone())
+            .expect("frame holds width*height RGB pixels");
+        image::imageops::replace(&mut img, &view, x0 as i64, 0);
+    }
+    // Outliers first, so that inliers stay visible where lines cross.
+    for want in [false, true] {
+        for &((x1, y1), (x2, y2), inlier) in ends.iter().filter(|e| e.2 == want) {
+            let c = if inlier { INLIER } else { OUTLIER };
+            let b = (x2 + w1 as f32, y2);
+            line(&mut img, (x1, y1), b, c);
+            circle(&mut img, (x1, y1), 3.0, c);
+            circle(&mut img, b, 3.0, c);
+        }
+    }
+    img
+}
+
+/// Writes an image as PNG, atomically.
+pub fn write_image(path: &Path, img: &image::RgbImage) -> Result<()> {
     let mut bytes = Vec::new();
     img.write_to(
         &mut std::io::Cursor::new(&mut bytes),

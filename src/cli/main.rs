@@ -26,6 +26,7 @@ mod draw;
 mod eval;
 mod gist;
 mod info;
+mod matches;
 mod nav;
 mod slam;
 
@@ -49,6 +50,9 @@ struct Cli {
 enum Command {
     /// Detect keypoints on one or more images; JSON (or CSV) on stdout or one file per image.
     Detect(detect::DetectCmd),
+    /// Match the keypoints of two images (mutual nearest descriptors, ratio test), verified by
+    /// a RANSAC homography or fundamental matrix; a summary or JSON, and a side-by-side PNG.
+    Match(matches::MatchCmd),
     /// Detect on every image under a directory (recursive), one JSON per image + summary.csv.
     Batch(batch::BatchCmd),
     /// Judge detectors by repeatability (eq 11) and recall (eq 12): rotation sweeps and
@@ -121,6 +125,7 @@ fn main() -> ExitCode {
     }
     let result = match cli.command {
         Command::Detect(cmd) => detect::detect(cmd),
+        Command::Match(cmd) => matches::run(cmd),
         Command::Batch(cmd) => batch::run_batch(cmd),
         Command::Eval(eval::EvalKind::Rotation(cmd)) => eval::eval_rotation(cmd),
         Command::Eval(eval::EvalKind::Homography(cmd)) => eval::eval_homography(cmd),

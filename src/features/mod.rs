@@ -7,6 +7,7 @@ pub mod descriptor;
 pub mod detector;
 pub mod filter_bank;
 pub mod harris;
+pub mod matching;
 pub mod merge;
 pub mod steerable;
 pub mod steered;

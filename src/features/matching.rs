@@ -1,0 +1,315 @@
+//! Correspondences between the keypoints of two images: mutual nearest neighbours of the
+//! descriptors with Lowe's ratio test (the matching behind recall, eq 12), verified by a
+//! RANSAC homography (planar scenes, pure rotations) or fundamental matrix (general motion).
+//! Beyond the paper, which evaluates descriptors but never matches two images.
+
+use nalgebra::{Matrix3, SMatrix, Vector3};
+use rayon::prelude::*;
+
+use crate::features::Keypoint;
+use crate::synth::Rng;
+
+/// One correspondence: keypoint `i` of the first image and `j` of the second.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Match {
+    /// Index into the first image's keypoints.
+    pub i: usize,
+    /// Index into the second image's keypoints.
+    pub j: usize,
+    /// Euclidean distance between the two descriptors.
+    pub distance: f32,
+}
+
+/// Mutual nearest neighbours in descriptor space that pass the ratio test in both
+/// directions: each is the other's nearest, and nearer than `ratio` × the second nearest.
+/// Sorted by distance.
+pub fn mutual_matches(a: &[Keypoint], b: &[Keypoint], ratio: f32) -> Vec<Match> {
+    let forward = nearest(a, b, ratio);
+    let backward = nearest(b, a, ratio);
+    let mut out: Vec<Match> = forward
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| {
+            let (j, distance) = (*f)?;
+            (backward[j].map(|(back, _)| back) == Some(i)).then_some(Match { i, j, distance })
+        })
+        .collect();
+    out.sort_by(|x, y| x.distance.total_cmp(&y.distance).then(x.i.cmp(&y.i)));
+    out
+}
+
+/// For each keypoint of `from`, its nearest in `to` and the distance, when that passes the
+/// ratio test against the second nearest.
+fn nearest(from: &[Keypoint], to: &[Keypoint], ratio: f32) -> Vec<Option<(usize, f32)>> {
+    from.par_iter()
+        .map(|p| {
+            let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
+            for (j, q) in to.iter().enumerate() {
+                let d2: f32 = p
+                    .descriptor
+                    .iter()
+                    .zip(&q.descriptor)
+                    .map(|(x, y)| (x - y) * (x - y))
+                    .sum();
+                if d2 < best.1 {
+                    second = best.1;
+                    best = (j, d2);
+                } else if d2 < second {
+                    second = d2;
+                }
+            }
+            // Squared distances: the ratio applies squared.
+            (best.0 != usize::MAX && best.1 < ratio * ratio * second)
+                .then(|| (best.0, best.1.sqrt()))
+        })
+        .collect()
+}
+
+/// The geometric model that verifies matches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Verification {
+    /// A plane-to-plane map x₂ ~ H·x₁ (4-point DLT); error: distance in the second image.
+    Homography,
+    /// The epipolar constraint x₂ᵀ·F·x₁ = 0 (8-point); error: Sampson distance in pixels.
+    Fundamental,
+    /// No verification: every match counts as an inlier.
+    None,
+}
+
+named_variants!(Verification { Homography => "homography", Fundamental => "fundamental", None => "none" });
+
+/// The outcome of RANSAC: the model (row-major 3×3) refitted on its inliers, and which
+/// correspondences are inliers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verified {
+    /// H or F, row-major; `None` when too few correspondences or no model was found.
+    pub model: Option<[f64; 9]>,
+    /// One flag per correspondence.
+    pub inliers: Vec<bool>,
+}
+
+/// Pixel correspondences (x₁, y₁) → (x₂, y₂).
+pub type PointPair = ((f64, f64), (f64, f64));
+
+/// RANSAC with the adaptive number of iterations for 99.9% confidence (at most
+/// `max_iterations`), `threshold` pixels, then two refits on all inliers. Seeded, so a run
+/// is reproducible.
+pub fn verify(
+    pairs: &[PointPair],
+    model: Verification,
+    threshold: f64,
+    max_iterations: usize,
+    seed: u64,
+) -> Verified {
+    let (sample_size, fit, error): (usize, FitFn, ErrorFn) = match model {
+        Verification::None => {
+            return Verified {
+                model: None,
+                inliers: vec![true; pairs.len()],
+            }
+        }
+        Verification::Homography => (4, fit_homography, homography_error),
+        Verification::Fundamental => (8, fit_fundamental, sampson_error),
+    };
+    let none = Verified {
+        model: None,
+        inliers: vec![false; pairs.len()],
+    };
+    let n = pairs.len();
+    if n < sample_size {
+        return none;
+    }
+    let t2 = threshold * threshold;
+    let inliers_of =
+        |m: &Matrix3<f64>| -> Vec<bool> { pairs.iter().map(|p| error(m, p) < t2).collect() };
+    let mut rng = Rng(seed);
+    let mut best: Option<(usize, Vec<bool>)> = None;
+    let mut needed = max_iterations;
+    let mut done = 0;
+    let mut sample = vec![0usize; sample_size];
+    while done < needed {
+        done += 1;
+        let mut k = 0;
+        while k < sample_size {
+            let i = (rng.next_u64() % n as u64) as usize;
+            if !sample[..k].contains(&i) {
+                sample[k] = i;
+                k += 1;
+            }
+        }
+        let Some(m) = fit(pairs, &sample) else {
+            continue;
+        };
+        let inliers = inliers_of(&m);
+        let count = inliers.iter().filter(|&&b| b).count();
+        if best.as_ref().is_none_or(|(c, _)| count > *c) {
+            let w = (count as f64 / n as f64).powi(sample_size as i32);
+            if w > 0.0 {
+                let adaptive = ((0.001f64).ln() / (1.0 - w).ln().min(-1e-12)).ceil();
+                needed = needed.min(adaptive.max(1.0) as usize);
+            }
+            best = Some((count, inliers));
+        }
+    }
+    let Some((_, mut inliers)) = best else {
+        return none;
+    };
+    let mut model = None;
+    for _ in 0..2 {
+        let chosen: Vec<usize> = (0..n).filter(|&i| inliers[i]).collect();
+        let Some(m) = fit(pairs, &chosen) else { break };
+        inliers = inliers_of(&m);
+        model = Some(m);
+    }
+    Verified {
+        model: model.map(|m| std::array::from_fn(|k| m[(k / 3, k % 3)])),
+        inliers,
+    }
+}
+
+type FitFn = fn(&[PointPair], &[usize]) -> Option<Matrix3<f64>>;
+type ErrorFn = fn(&Matrix3<f64>, &PointPair) -> f64;
+
+/// Hartley's normalisation of the chosen points of one image: centroid at the origin, mean
+/// distance √2. Returns the transform.
+fn normaliser(points: impl Iterator<Item = (f64, f64)> + Clone) -> Matrix3<f64> {
+    let n = points.clone().count().max(1) as f64;
+    let (mx, my) = points
+        .clone()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let mean = points
+        .map(|(x, y)| ((x - mx).powi(2) + (y - my).powi(2)).sqrt())
+        .sum::<f64>()
+        / n;
+    let s = if mean > 0.0 {
+        std::f64::consts::SQRT_2 / mean
+    } else {
+        1.0
+    };
+    Matrix3::new(s, 0.0, -s * mx, 0.0, s, -s * my, 0.0, 0.0, 1.0)
+}
+
+/// The null vector of the stacked constraint rows (least squares for more rows than needed).
+fn null_vector(rows: &[[f64; 9]]) -> Option<SMatrix<f64, 9, 1>> {
+    let mut ata = SMatrix::<f64, 9, 9>::zeros();
+    for r in rows {
+        let v = SMatrix::<f64, 9, 1>::from_row_slice(r);
+        ata += v * v.transpose();
+    }
+    let eigen = nalgebra::SymmetricEigen::new(ata);
+    let v = eigen
+        .eigenvectors
+        .column(eigen.eigenvalues.imin())
+        .into_owned();
+    v.iter().all(|x| x.is_finite()).then_some(v)
+}
+
+fn normalised(
+    pairs: &[PointPair],
+    chosen: &[usize],
+) -> (Matrix3<f64>, Matrix3<f64>, Vec<PointPair>) {
+    let t1 = normaliser(chosen.iter().map(|&i| pairs[i].0));
+    let t2 = normaliser(chosen.iter().map(|&i| pairs[i].1));
+    let apply = |t: &Matrix3<f64>, (x, y): (f64, f64)| {
+        (t[(0, 0)] * x + t[(0, 2)], t[(1, 1)] * y + t[(1, 2)])
+    };
+    let pts = chosen
+        .iter()
+        .map(|&i| (apply(&t1, pairs[i].0), apply(&t2, pairs[i].1)))
+        .collect();
+    (t1, t2, pts)
+}
+
+fn fit_homography(pairs: &[PointPair], chosen: &[usize]) -> Option<Matrix3<f64>> {
+    let (t1, t2, pts) = normalised(pairs, chosen);
+    let rows: Vec<[f64; 9]> = pts
+        .iter()
+        .flat_map(|&((x, y), (u, v))| {
+            [
+                [-x, -y, -1.0, 0.0, 0.0, 0.0, u * x, u * y, u],
+                [0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v],
+            ]
+        })
+        .collect();
+    let h = null_vector(&rows)?;
+    let h = Matrix3::from_row_slice(h.as_slice());
+    let h = t2.try_inverse()? * h * t1;
+    (h[(2, 2)].abs() > 1e-12).then(|| h / h[(2, 2)])
+}
+
+fn homography_error(h: &Matrix3<f64>, &((x, y), (u, v)): &PointPair) -> f64 {
+    let p = h * Vector3::new(x, y, 1.0);
+    if p.z.abs() < 1e-12 {
+        return f64::INFINITY;
+    }
+    (p.x / p.z - u).powi(2) + (p.y / p.z - v).powi(2)
+}
+
+fn fit_fundamental(pairs: &[PointPair], chosen: &[usize]) -> Option<Matrix3<f64>> {
+    let (t1, t2, pts) = normalised(pairs, chosen);
+    let rows: Vec<[f64; 9]> = pts
+        .iter()
+        .map(|&((x, y), (u, v))| [u * x, u * y, u, v * x, v * y, v, x, y, 1.0])
+        .collect();
+    let f = null_vector(&rows)?;
+    let f = Matrix3::from_row_slice(f.as_slice());
+    // Rank 2: the smallest singular value set to zero.
+    let svd = f.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let mut s = svd.singular_values;
+    s[2] = 0.0;
+    let f = u * Matrix3::from_diagonal(&s) * v_t;
+    Some(t2.transpose() * f * t1)
+}
+
+/// Squared Sampson distance, pixels².
+fn sampson_error(f: &Matrix3<f64>, &((x, y), (u, v)): &PointPair) -> f64 {
+    let (a, b) = (Vector3::new(x, y, 1.0), Vector3::new(u, v, 1.0));
+    let fa = f * a;
+    let ftb = f.transpose() * b;
+    let r = b.dot(&fa);
+    let den = fa.x * fa.x + fa.y * fa.y + ftb.x * ftb.x + ftb.y * ftb.y;
+    if den <= 0.0 {
+        return f64::INFINITY;
+    }
+    r * r / den
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ransac_finds_a_homography_and_a_fundamental_matrix_among_outliers() {
+        let h = Matrix3::new(0.9, -0.2, 30.0, 0.25, 1.1, -12.0, 1e-4, -2e-4, 1.0);
+        let mut rng = Rng(3);
+        let mut pairs: Vec<PointPair> = (0..80)
+            .map(|_| {
+                let (x, y) = (rng.range(0.0, 640.0) as f64, rng.range(0.0, 480.0) as f64);
+                let p = h * Vector3::new(x, y, 1.0);
+                ((x, y), (p.x / p.z, p.y / p.z))
+            })
+            .collect();
+        for _ in 0..40 {
+            let a = (rng.range(0.0, 640.0) as f64, rng.range(0.0, 480.0) as f64);
+            let b = (rng.range(0.0, 640.0) as f64, rng.range(0.0, 480.0) as f64);
+            pairs.push((a, b));
+        }
+        let v = verify(&pairs, Verification::Homography, 2.0, 2000, 1);
+        assert!(v.inliers[..80].iter().all(|&b| b));
+        assert!(v.inliers[80..].iter().filter(|&&b| b).count() <= 2);
+        let m = v.model.unwrap();
+        assert!(
+            (m[2] - 30.0).abs() < 1e-3 && (m[4] - 1.1).abs() < 1e-6,
+            "{m:?}"
+        );
+        // A homography satisfies the epipolar constraint of some F: the inliers stay inliers.
+        let f = verify(&pairs, Verification::Fundamental, 1.0, 4000, 1);
+        assert!(f.inliers[..80].iter().filter(|&&b| b).count() >= 78);
+        assert_eq!(
+            verify(&pairs[..3], Verification::Homography, 2.0, 100, 1).model,
+            None
+        );
+    }
+}

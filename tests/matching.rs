@@ -1,0 +1,107 @@
+//! `steernav match` and the matching API: on a generated scene and its rotation by 37° (not a
+//! multiple of the 15° between steered orientations), at least 90% of the matches are correct
+//! under the known map, before and after RANSAC; the JSON has the documented fields.
+
+use std::process::Command;
+
+use steernav::features::matching::{mutual_matches, verify, Verification};
+use steernav::synth::{rotate, textured_scene};
+use steernav::{Backend, Detector, DetectorConfig};
+
+fn correct(map: &[f64; 6], (x1, y1): (f64, f64), (x2, y2): (f64, f64)) -> bool {
+    let (u, v) = (
+        map[0] * x1 + map[1] * y1 + map[2],
+        map[3] * x1 + map[4] * y1 + map[5],
+    );
+    (u - x2).hypot(v - y2) <= 2.0
+}
+
+#[test]
+fn matches_on_a_rotated_pair_are_correct_under_the_known_map() {
+    let scene = textured_scene(400, 300, 21);
+    let (turned, map) = rotate(&scene, 37f32.to_radians(), 460, 420);
+    let detector = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+    let (a, b) = (
+        detector.detect(&scene).unwrap(),
+        detector.detect(&turned).unwrap(),
+    );
+    let matches = mutual_matches(&a.keypoints, &b.keypoints, 0.8);
+    let point = |k: &steernav::Keypoint| (k.x as f64, k.y as f64);
+    let pairs: Vec<_> = matches
+        .iter()
+        .map(|m| (point(&a.keypoints[m.i]), point(&b.keypoints[m.j])))
+        .collect();
+    let good = pairs.iter().filter(|(p, q)| correct(&map, *p, *q)).count();
+    assert!(pairs.len() >= 100, "{} matches", pairs.len());
+    let share = good as f64 / pairs.len() as f64;
+    assert!(share >= 0.9, "{good} of {} matches correct", pairs.len());
+    // RANSAC keeps the correct ones and rejects the wrong ones.
+    let v = verify(&pairs, Verification::Homography, 3.0, 10_000, 1);
+    let kept: Vec<_> = pairs.iter().zip(&v.inliers).filter(|(_, &b)| b).collect();
+    let kept_good = kept
+        .iter()
+        .filter(|((p, q), _)| correct(&map, *p, *q))
+        .count();
+    assert!(
+        kept.len() as f64 >= 0.95 * good as f64,
+        "{} of {good}",
+        kept.len()
+    );
+    assert!(kept_good as f64 >= 0.98 * kept.len() as f64);
+    // The fitted homography is the rotation's map.
+    let h = v.model.unwrap();
+    for (k, &m) in map.iter().enumerate() {
+        assert!(
+            (h[k] - m).abs() <= 1e-2 * (1.0 + m.abs()),
+            "H {h:?} vs {map:?}"
+        );
+    }
+}
+
+#[test]
+fn the_match_command_writes_the_documented_json_and_a_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = textured_scene(320, 240, 4);
+    let (turned, _) = rotate(&scene, 0.5, 380, 360);
+    let save = |f: &steernav::Frame, name: &str| {
+        let p = dir.path().join(name);
+        image::RgbImage::from_raw(f.width, f.height, f.rgb.clone())
+            .unwrap()
+            .save(&p)
+            .unwrap();
+        p
+    };
+    let (a, b) = (save(&scene, "a.png"), save(&turned, "b.png"));
+    let picture = dir.path().join("matches.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_steernav"))
+        .args(["match", "--backend", "cpu", "--json", "--draw"])
+        .arg(&picture)
+        .args([&a, &b])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["descriptor"], "steered");
+    assert_eq!(v["image1"], a.display().to_string());
+    let matches = v["matches"].as_array().unwrap();
+    assert!(matches.len() > 30, "{}", matches.len());
+    for key in ["i", "j", "x1", "y1", "x2", "y2", "distance", "inlier"] {
+        assert!(matches[0].get(key).is_some(), "no {key}");
+    }
+    let inliers = matches.iter().filter(|m| m["inlier"] == true).count();
+    assert_eq!(v["inliers"].as_u64().unwrap() as usize, inliers);
+    let drawn = image::open(&picture).unwrap();
+    assert_eq!((drawn.width(), drawn.height()), (320 + 380, 360));
+    // Bad flags are refused with their name.
+    let bad = Command::new(env!("CARGO_BIN_EXE_steernav"))
+        .args(["match", "--backend", "cpu", "--ratio", "1.5"])
+        .args([&a, &b])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--ratio"));
+}
