@@ -26,6 +26,7 @@ fn every_shader_validates_with_naga() {
     let embedded: Vec<(&str, &str)> = [
         &steernav::features::harris::gpu::SHADERS[..],
         &steernav::features::filter_bank::gpu::SHADERS[..],
+        &steernav::features::steered::gpu::SHADERS[..],
         &steernav::nav::dnf::gpu::SHADERS[..],
         &steernav::nav::gist::gpu::SHADERS[..],
     ]

@@ -13,7 +13,7 @@ use super::descriptor::describe;
 use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
-use super::steered::describe_steered;
+use super::steered::{describe_steered, GpuSteered};
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
 use crate::features::harris::{GpuHarris, GpuTimings};
@@ -88,6 +88,8 @@ pub struct Detector {
     plan: HarrisPlan,
     cpu: CpuHarris,
     gpu: Option<GpuHarris>,
+    /// The steered descriptor's GPU twin, beside the GPU Harris stage.
+    gpu_steered: Option<GpuSteered>,
     fallback: bool,
 }
 
@@ -111,6 +113,7 @@ impl Detector {
         };
         Ok(Self {
             cpu: CpuHarris::new(plan.clone()),
+            gpu_steered: gpu.as_ref().map(|g| GpuSteered::new(g.context().clone())),
             plan,
             gpu,
             fallback: backend == Backend::Auto,
@@ -125,6 +128,7 @@ impl Detector {
         let plan = HarrisPlan::new(config);
         Ok(Self {
             cpu: CpuHarris::new(plan.clone()),
+            gpu_steered: Some(GpuSteered::new(context.clone())),
             gpu: Some(GpuHarris::new(context, plan.clone())),
             plan,
             fallback: false,
@@ -221,25 +225,39 @@ impl Detector {
         }
         let kind = self.plan.config.descriptor;
         let (w, h) = (frame.width as usize, frame.height as usize);
-        let keypoints = clusters
-            .par_iter()
-            .map(|c| {
-                let scale = self.plan.scales[c.scale_index].sigma_d;
-                Keypoint {
-                    x: c.x,
-                    y: c.y,
-                    scale,
-                    angle: self.plan.orientations[c.orientation_index],
-                    response: c.response,
-                    descriptor: match kind {
-                        DescriptorKind::Steered => {
-                            describe_steered(&frame.gray, w, h, c.x, c.y, scale).values
-                        }
-                        DescriptorKind::Entropy => describe(frame, c.x, c.y).to_vec(),
-                    },
-                }
+        let mut keypoints: Vec<Keypoint> = clusters
+            .iter()
+            .map(|c| Keypoint {
+                x: c.x,
+                y: c.y,
+                scale: self.plan.scales[c.scale_index].sigma_d,
+                angle: self.plan.orientations[c.orientation_index],
+                response: c.response,
+                descriptor: Vec::new(),
             })
             .collect();
+        // Descriptors on the backend that found the candidates.
+        let on_gpu = match (&self.gpu_steered, kind, backend) {
+            (Some(g), DescriptorKind::Steered, "gpu") => {
+                let points: Vec<_> = keypoints.iter().map(|k| (k.x, k.y, k.scale)).collect();
+                let described = g.describe(&frame.gray, frame.width, frame.height, &points)?;
+                for (k, d) in keypoints.iter_mut().zip(described) {
+                    k.descriptor = d.values;
+                }
+                true
+            }
+            _ => false,
+        };
+        if !on_gpu {
+            keypoints.par_iter_mut().for_each(|k| {
+                k.descriptor = match kind {
+                    DescriptorKind::Steered => {
+                        describe_steered(&frame.gray, w, h, k.x, k.y, k.scale).values
+                    }
+                    DescriptorKind::Entropy => describe(frame, k.x, k.y).to_vec(),
+                };
+            });
+        }
         let t3 = Instant::now();
         let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
         Ok(Detection {

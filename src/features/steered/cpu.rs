@@ -1,53 +1,13 @@
-//! A matchable rotation-invariant descriptor, steered by the keypoint's own orientation: the
-//! first-order steerable basis (eq 3 with n = 1: F(θ) = cos θ·Ix + sin θ·Iy on the image
-//! smoothed at the keypoint's σ_D) read in the keypoint's frame. Beyond the paper, whose
-//! 5-entropy descriptor (section 2.3, [`super::descriptor`]) recalls 0.29 under rotation.
-//!
-//! 1. **Orientation** in [0, 2π). The keypoint's `angle` is the axis of its strongest steered
-//!    second-order response, quantised to the N steered orientations and ambiguous by a half
-//!    turn. The frame instead takes the direction θ* that maximises the first-order steered
-//!    energy of the patch: a 36-bin histogram of argmax_θ F(θ) = atan2(Iy, Ix), weighted by
-//!    |∇I| and a Gaussian window, smoothed, with a parabolic fit around its peak. The sign of
-//!    the first-order response resolves the half turn, and the angle is continuous.
-//! 2. **Descriptor**: the steered responses F(θ* + φ_b) of every pixel of a square window
-//!    rotated by θ*, binned into 4×4 cells × 8 directions φ_b with trilinear weights and a
-//!    Gaussian window (128 values). The vector is L2-normalised, clipped at 0.2 and
-//!    normalised again, so that a few saturated gradients (light changes) cannot dominate.
-//!
-//! Each keypoint works on its own patch, smoothed on the spot, so memory does not grow with
-//! the image and the cost grows with σ_D² only for the rare coarse keypoints.
-//!
-//! Both the orientation and the descriptor are rotation invariant by construction: rotating
-//! the image rotates the window, the gradients and θ* together.
+//! CPU twin of the steered descriptor (see [`super`]); the GPU twin is [`super::gpu`]
+//! (`shaders/steered_descriptor.wgsl`), which follows this arithmetic step for step.
 
 use std::f32::consts::TAU;
 
+use super::{
+    nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS, CLIP, DIRECTIONS,
+    ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
+};
 use crate::features::steerable::Kernel1d;
-
-/// Length of the steered descriptor.
-pub const STEERED_LEN: usize = CELLS * CELLS * DIRECTIONS;
-/// Spatial cells per side.
-const CELLS: usize = 4;
-/// Direction bins per cell.
-const DIRECTIONS: usize = 8;
-/// Side of one cell, in units of the keypoint's σ_D. A 20σ_D window at the finest scale
-/// (20 px at σ_D = 1) matches the entropy descriptor's patch.
-const CELL_SIGMAS: f32 = 5.0;
-/// Standard deviation of the orientation window, in σ_D.
-const ORIENTATION_SIGMAS: f32 = 4.0;
-/// Bins of the orientation histogram.
-const ORIENTATION_BINS: usize = 36;
-/// Largest value of the normalised descriptor before the second normalisation.
-const CLIP: f32 = 0.2;
-
-/// A descriptor and the orientation of its frame.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Steered {
-    /// Direction θ* of the frame, radians in [0, 2π).
-    pub orientation: f32,
-    /// The 128 values, unit length (all zero on a flat patch).
-    pub values: Vec<f32>,
-}
 
 /// The image around one keypoint, smoothed at its σ_D, with its gradients.
 struct Patch {
@@ -60,22 +20,20 @@ struct Patch {
 }
 
 impl Patch {
-    /// The `side`×`side` window whose centre pixel is nearest (x, y), smoothed with a Gaussian
-    /// of σ (borders clamped), and its central-difference gradient.
+    /// The `side`×`side` window whose centre pixel is nearest (x, y), smoothed with `kernel`
+    /// (borders clamped), and its central-difference gradient.
     fn around(
         gray: &[f32],
         width: usize,
         height: usize,
-        x: f32,
-        y: f32,
+        (x, y): (f32, f32),
         half: usize,
-        sigma: f32,
+        kernel: &Kernel1d,
     ) -> Self {
-        let kernel = Kernel1d::gaussian_derivative(sigma, 0, 3.0);
         let r = kernel.radius();
         let side = 2 * half + 1;
         let outer = side + 2 * (r + 1);
-        let (cx, cy) = (x.round() as i64, y.round() as i64);
+        let (cx, cy) = (nearest_pixel(x), nearest_pixel(y));
         let (ox, oy) = (cx - (half + r + 1) as i64, cy - (half + r + 1) as i64);
         let pixel = |u: i64, v: i64| {
             let u = u.clamp(0, width as i64 - 1) as usize;
@@ -150,10 +108,8 @@ pub fn describe_steered(
 ) -> Steered {
     let cell = CELL_SIGMAS * sigma;
     let window = CELLS as f32 * cell;
-    // The rotated window's corners reach half its diagonal; the orientation window 3σ.
-    let reach = (0.5 * window * std::f32::consts::SQRT_2).max(3.0 * ORIENTATION_SIGMAS * sigma);
-    let half = reach.ceil() as usize + 1;
-    let patch = Patch::around(gray, width, height, x, y, half, sigma);
+    let (half, kernel) = patch_geometry(sigma);
+    let patch = Patch::around(gray, width, height, (x, y), half, &kernel);
     let orientation = dominant_orientation(&patch, x, y, ORIENTATION_SIGMAS * sigma);
     let (sin, cos) = orientation.sin_cos();
     let mut hist = vec![0.0f32; STEERED_LEN];
@@ -166,13 +122,13 @@ pub fn describe_steered(
         if u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32 {
             continue;
         }
-        let magnitude = gx.hypot(gy);
+        let magnitude = (gx * gx + gy * gy).sqrt();
         if magnitude == 0.0 {
             continue;
         }
         let w = magnitude * (-(dx * dx + dy * dy) / (2.0 * weight_sigma * weight_sigma)).exp();
         // Direction of steepest steered response relative to the frame.
-        let phi = (gy.atan2(gx) - orientation).rem_euclid(TAU) * to_bin;
+        let phi = wrap_angle(gy.atan2(gx) - orientation) * to_bin;
         let (u0, v0, p0) = (u.floor(), v.floor(), phi.floor());
         let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
         for (cu, wu) in [(u0, 1.0 - fu), (u0 + 1.0, fu)] {
@@ -222,9 +178,9 @@ fn dominant_orientation(patch: &Patch, x: f32, y: f32, sigma: f32) -> f32 {
         if d2 > limit {
             continue;
         }
-        let w = gx.hypot(gy) * (-d2 / (2.0 * sigma * sigma)).exp();
+        let w = (gx * gx + gy * gy).sqrt() * (-d2 / (2.0 * sigma * sigma)).exp();
         // Linear vote between the two nearest bins keeps θ* continuous under rotation.
-        let b = gy.atan2(gx).rem_euclid(TAU) * to_bin - 0.5;
+        let b = wrap_angle(gy.atan2(gx)) * to_bin - 0.5;
         let b0 = b.floor();
         let f = b - b0;
         let i0 = (b0 as i64).rem_euclid(ORIENTATION_BINS as i64) as usize;
@@ -245,7 +201,7 @@ fn dominant_orientation(patch: &Patch, x: f32, y: f32, sigma: f32) -> f32 {
         );
     let at = |d: usize| hist[(peak + ORIENTATION_BINS + d - 1) % ORIENTATION_BINS];
     let offset = crate::features::harris::cpu::parabola_offset(at(0), at(1), at(2));
-    ((peak as f32 + 0.5 + offset) / to_bin).rem_euclid(TAU)
+    wrap_angle((peak as f32 + 0.5 + offset) / to_bin)
 }
 
 /// Euclidean distance between two steered descriptors.

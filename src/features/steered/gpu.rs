@@ -1,0 +1,331 @@
+//! GPU twin of the steered descriptor: drives `shaders/steered_descriptor.wgsl`, one workgroup
+//! per keypoint. CPU twin: [`super::cpu`].
+//!
+//! Per frame: one upload of the luminance plane and of the keypoint jobs, the dispatches, and
+//! one readback of every descriptor with its orientation. Each keypoint smooths its own patch
+//! in a scratch area; keypoints go in chunks whose scratch fits [`SCRATCH_BUDGET_BYTES`], so
+//! memory stays bounded whatever the scales. A keypoint whose patch is too large for one
+//! invocation's loops (σ_D above about 9 px) is described on the CPU.
+
+use std::sync::{Arc, Mutex};
+
+use super::{patch_geometry, Steered, STEERED_LEN};
+use crate::error::Result;
+use crate::gpu::layout::gpu_struct;
+use crate::gpu::pipelines::{single_main, PipelineSet};
+use crate::gpu::util::{bind, read_staging, staging, storage, uniform};
+use crate::gpu::GpuContext;
+
+/// The stage's WGSL source with its file name.
+pub const SHADERS: [(&str, &str); 1] = [(
+    "steered_descriptor.wgsl",
+    include_str!("../../../shaders/steered_descriptor.wgsl"),
+)];
+
+struct SteeredPipeline(wgpu::ComputePipeline);
+
+impl PipelineSet for SteeredPipeline {
+    fn build(device: &wgpu::Device) -> Self {
+        Self(single_main(device, SHADERS[0]))
+    }
+}
+
+gpu_struct! {
+    struct Params as "Params" {
+        width: u32,
+        height: u32,
+        count: u32,
+        groups_x: u32,
+        slots: u32,
+        first: u32,
+        _pad0: u32,
+        _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    struct Job as "Job" {
+        x: f32,
+        y: f32,
+        sigma: f32,
+        half: u32,
+        radius: u32,
+        taps: u32,
+        scratch: u32,
+        slot: u32,
+    }
+}
+
+/// Bytes of patch scratch one dispatch may use.
+const SCRATCH_BUDGET_BYTES: u64 = 64 << 20;
+/// Pixels of one keypoint's gradient window the shader's per-invocation loops may visit
+/// (lavapipe stops loops past 65,535 iterations).
+const MAX_WINDOW_PIXELS: usize = 65_535;
+
+/// Buffers for one image size and keypoint capacity.
+struct Resources {
+    width: u32,
+    height: u32,
+    capacity: usize,
+    gray: wgpu::Buffer,
+    taps: wgpu::Buffer,
+    jobs: wgpu::Buffer,
+    scratch: wgpu::Buffer,
+    out: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    params: wgpu::Buffer,
+    group: wgpu::BindGroup,
+}
+
+/// The GPU steered-descriptor stage; safe to share between threads (frames are serialised).
+pub struct GpuSteered {
+    ctx: Arc<GpuContext>,
+    resources: Mutex<Option<Resources>>,
+}
+
+/// One keypoint's work as planned on the CPU.
+struct Planned {
+    job: Job,
+    scratch_floats: usize,
+}
+
+impl GpuSteered {
+    /// The stage on a context; buffers are made on first use.
+    pub fn new(ctx: Arc<GpuContext>) -> Self {
+        Self {
+            ctx,
+            resources: Mutex::new(None),
+        }
+    }
+
+    /// Descriptors of keypoints at `points` (x, y, σ_D) on a `width`×`height` luminance plane,
+    /// in the order given.
+    pub fn describe(
+        &self,
+        gray: &[f32],
+        width: u32,
+        height: u32,
+        points: &[(f32, f32, f32)],
+    ) -> Result<Vec<Steered>> {
+        let (w, h) = (width as usize, height as usize);
+        let mut out: Vec<Option<Steered>> = vec![None; points.len()];
+        // Plan: kernels deduplicated by σ (a handful of scales), scratch per keypoint.
+        let mut taps: Vec<f32> = Vec::new();
+        let mut kernels: Vec<(f32, u32, u32)> = Vec::new();
+        let mut planned: Vec<Planned> = Vec::new();
+        for (slot, &(x, y, sigma)) in points.iter().enumerate() {
+            let (half, kernel) = patch_geometry(sigma);
+            let side = 2 * half + 1;
+            if side * side > MAX_WINDOW_PIXELS {
+                out[slot] = Some(super::describe_steered(gray, w, h, x, y, sigma));
+                continue;
+            }
+            let r = kernel.radius();
+            let offset = match kernels.iter().find(|k| k.0 == sigma) {
+                Some(k) => k.1,
+                None => {
+                    let o = taps.len() as u32;
+                    taps.extend(&kernel.taps);
+                    kernels.push((sigma, o, r as u32));
+                    o
+                }
+            };
+            let (inner, outer) = (side + 2, side + 2 * (r + 1));
+            planned.push(Planned {
+                job: Job {
+                    x,
+                    y,
+                    sigma,
+                    half: half as u32,
+                    radius: r as u32,
+                    taps: offset,
+                    scratch: 0,
+                    slot: slot as u32,
+                },
+                scratch_floats: outer * inner + inner * inner + 2 * side * side,
+            });
+        }
+        if !planned.is_empty() {
+            let values = self.run(gray, width, height, &taps, &mut planned, points.len())?;
+            for p in &planned {
+                let s = p.job.slot as usize;
+                out[s] = Some(Steered {
+                    orientation: values[points.len() * STEERED_LEN + s],
+                    values: values[s * STEERED_LEN..(s + 1) * STEERED_LEN].to_vec(),
+                });
+            }
+        }
+        Ok(out
+            .into_iter()
+            .map(|s| s.expect("every slot described"))
+            .collect())
+    }
+
+    fn run(
+        &self,
+        gray: &[f32],
+        width: u32,
+        height: u32,
+        taps: &[f32],
+        planned: &mut [Planned],
+        slots: usize,
+    ) -> Result<Vec<f32>> {
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let limit = self.ctx.limits.max_storage_buffer_binding_size;
+        let budget = (SCRATCH_BUDGET_BYTES.min(limit) / 4) as usize;
+        let largest = planned.iter().map(|p| p.scratch_floats).max().unwrap_or(0);
+        let scratch_floats = budget.max(largest);
+        let mut guard = self.resources.lock().unwrap_or_else(|e| e.into_inner());
+        let fits = guard.as_ref().is_some_and(|r| {
+            r.width == width
+                && r.height == height
+                && r.capacity >= slots
+                && r.taps.size() >= (taps.len() * 4) as u64
+                && r.scratch.size() >= (scratch_floats * 4) as u64
+        });
+        if !fits {
+            *guard = Some(self.allocate(
+                width,
+                height,
+                slots.max(64),
+                taps.len().max(256),
+                scratch_floats,
+            ));
+        }
+        let res = guard.as_ref().expect("allocated above");
+        queue.write_buffer(&res.gray, 0, bytemuck::cast_slice(gray));
+        queue.write_buffer(&res.taps, 0, bytemuck::cast_slice(taps));
+        let pipeline = &self.ctx.pipelines::<SteeredPipeline>().0;
+        // Chunks whose scratch fits the buffer, one dispatch each, in one submission: the
+        // parameters of each chunk are copied into place by the encoder itself.
+        let mut chunks: Vec<(usize, usize)> = Vec::new();
+        let (mut start, mut used) = (0, 0);
+        for (i, p) in planned.iter_mut().enumerate() {
+            if used + p.scratch_floats > scratch_floats {
+                chunks.push((start, i));
+                start = i;
+                used = 0;
+            }
+            p.job.scratch = used as u32;
+            used += p.scratch_floats;
+        }
+        chunks.push((start, planned.len()));
+        let jobs: Vec<Job> = planned.iter().map(|p| p.job).collect();
+        queue.write_buffer(&res.jobs, 0, bytemuck::cast_slice(&jobs));
+        let mut param_list = Vec::new();
+        for &(a, b) in &chunks {
+            let count = (b - a) as u32;
+            let groups_x = count.clamp(1, 65_535);
+            param_list.push(Params {
+                width,
+                height,
+                count,
+                groups_x,
+                slots: slots as u32,
+                first: a as u32,
+                _pad0: 0,
+                _pad1: 0,
+            });
+        }
+        let params_src = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("steered params per chunk"),
+                contents: bytemuck::cast_slice(&param_list),
+                usage: wgpu::BufferUsages::COPY_SRC,
+            },
+        );
+        let mut enc = device.create_command_encoder(&Default::default());
+        for (i, &(a, b)) in chunks.iter().enumerate() {
+            let count = (b - a) as u32;
+            let groups_x = count.clamp(1, 65_535);
+            enc.copy_buffer_to_buffer(
+                &params_src,
+                (i * std::mem::size_of::<Params>()) as u64,
+                &res.params,
+                0,
+                Some(std::mem::size_of::<Params>() as u64),
+            );
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("steered descriptor"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &res.group, &[]);
+            pass.dispatch_workgroups(groups_x, count.div_ceil(groups_x), 1);
+        }
+        let bytes = (slots * (STEERED_LEN + 1) * 4) as u64;
+        enc.copy_buffer_to_buffer(&res.out, 0, &res.readback, 0, Some(bytes));
+        queue.submit([enc.finish()]);
+        let raw = read_staging(device, &res.readback, bytes)?;
+        Ok(bytemuck::pod_collect_to_vec(&raw))
+    }
+
+    fn allocate(
+        &self,
+        width: u32,
+        height: u32,
+        capacity: usize,
+        taps: usize,
+        scratch_floats: usize,
+    ) -> Resources {
+        let device = &self.ctx.device;
+        let pipeline = &self.ctx.pipelines::<SteeredPipeline>().0;
+        let gray = storage(device, "steered gray", width as u64 * height as u64 * 4);
+        let taps = storage(device, "steered taps", taps as u64 * 4);
+        let jobs = storage(
+            device,
+            "steered jobs",
+            (capacity * std::mem::size_of::<Job>()) as u64,
+        );
+        let scratch = storage(device, "steered scratch", scratch_floats as u64 * 4);
+        let out_bytes = (capacity * (STEERED_LEN + 1) * 4) as u64;
+        let out = storage(device, "steered descriptors", out_bytes);
+        let readback = staging(device, "steered readback", out_bytes);
+        let params = uniform(
+            device,
+            "steered params",
+            &Params {
+                width,
+                height,
+                count: 0,
+                groups_x: 1,
+                slots: 0,
+                first: 0,
+                _pad0: 0,
+                _pad1: 0,
+            },
+        );
+        let group = bind(
+            device,
+            pipeline,
+            &[&params, &gray, &taps, &jobs, &scratch, &out],
+        );
+        Resources {
+            width,
+            height,
+            capacity,
+            gray,
+            taps,
+            jobs,
+            scratch,
+            out,
+            readback,
+            params,
+            group,
+        }
+    }
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use super::*;
+    use crate::gpu::layout::check;
+
+    #[test]
+    fn shared_structs_match_the_wgsl_declarations() {
+        check::<Params>(SHADERS[0].1);
+        check::<Job>(SHADERS[0].1);
+    }
+}
