@@ -9,14 +9,15 @@ use super::{
 };
 use crate::features::steerable::Kernel1d;
 
-/// The image around one keypoint, smoothed at its σ_D, with its gradients.
+/// The image around one keypoint, smoothed at its σ_D, as the magnitude and direction of its
+/// gradient: the first-order steered response is largest, |∇I|, along atan2(Iy, Ix).
 struct Patch {
     /// Column and row of the patch's first pixel in the image.
     x0: i64,
     y0: i64,
     side: usize,
-    gx: Vec<f32>,
-    gy: Vec<f32>,
+    magnitude: Vec<f32>,
+    direction: Vec<f32>,
 }
 
 impl Patch {
@@ -35,22 +36,23 @@ impl Patch {
         let outer = side + 2 * (r + 1);
         let (cx, cy) = (nearest_pixel(x), nearest_pixel(y));
         let (ox, oy) = (cx - (half + r + 1) as i64, cy - (half + r + 1) as i64);
-        let pixel = |u: i64, v: i64| {
-            let u = u.clamp(0, width as i64 - 1) as usize;
-            let v = v.clamp(0, height as i64 - 1) as usize;
-            gray[v * width + u]
-        };
-        // Rows first: `outer` rows of `side + 2` smoothed columns.
+        // Rows first: `outer` rows of `side + 2` smoothed columns, each from the row's pixels
+        // [ox, ox + inner + 2r) gathered once with the border clamped.
         let inner = side + 2;
         let mut rows = vec![0.0f32; outer * inner];
+        let mut source = vec![0.0f32; inner + 2 * r];
         for j in 0..outer {
+            let v = (oy + j as i64).clamp(0, height as i64 - 1) as usize;
+            let line = &gray[v * width..(v + 1) * width];
+            for (k, p) in source.iter_mut().enumerate() {
+                *p = line[(ox + k as i64).clamp(0, width as i64 - 1) as usize];
+            }
             for i in 0..inner {
-                let u = ox + (r + i) as i64;
                 rows[j * inner + i] = kernel
                     .taps
                     .iter()
-                    .enumerate()
-                    .map(|(t, &w)| w * pixel(u + t as i64 - r as i64, oy + j as i64))
+                    .zip(&source[i..])
+                    .map(|(&w, &p)| w * p)
                     .sum();
             }
         }
@@ -65,32 +67,36 @@ impl Patch {
                     .sum();
             }
         }
-        let (mut gx, mut gy) = (vec![0.0; side * side], vec![0.0; side * side]);
+        let mut magnitude = vec![0.0; side * side];
+        let mut direction = vec![0.0; side * side];
         for j in 0..side {
             for i in 0..side {
                 let s = |di: usize, dj: usize| smooth[(j + dj) * inner + i + di];
-                gx[j * side + i] = 0.5 * (s(2, 1) - s(0, 1));
-                gy[j * side + i] = 0.5 * (s(1, 2) - s(1, 0));
+                let gx = 0.5 * (s(2, 1) - s(0, 1));
+                let gy = 0.5 * (s(1, 2) - s(1, 0));
+                magnitude[j * side + i] = (gx * gx + gy * gy).sqrt();
+                direction[j * side + i] = gy.atan2(gx);
             }
         }
         Self {
             x0: cx - half as i64,
             y0: cy - half as i64,
             side,
-            gx,
-            gy,
+            magnitude,
+            direction,
         }
     }
 
-    /// Every pixel of the patch as (dx, dy, gx, gy), offsets from the sub-pixel centre (x, y).
+    /// Every pixel of the patch as (dx, dy, |∇I|, direction of ∇I), offsets from the
+    /// sub-pixel centre (x, y).
     fn pixels(&self, x: f32, y: f32) -> impl Iterator<Item = (f32, f32, f32, f32)> + '_ {
         (0..self.side * self.side).map(move |k| {
             let (i, j) = (k % self.side, k / self.side);
             (
                 (self.x0 + i as i64) as f32 - x,
                 (self.y0 + j as i64) as f32 - y,
-                self.gx[k],
-                self.gy[k],
+                self.magnitude[k],
+                self.direction[k],
             )
         })
     }
@@ -115,20 +121,19 @@ pub fn describe_steered(
     let mut hist = vec![0.0f32; STEERED_LEN];
     let weight_sigma = 0.5 * window;
     let to_bin = DIRECTIONS as f32 / TAU;
-    for (dx, dy, gx, gy) in patch.pixels(x, y) {
+    for (dx, dy, magnitude, direction) in patch.pixels(x, y) {
         // The pixel in the keypoint's frame, in cells, with cell centres at integers.
         let u = (cos * dx + sin * dy) / cell + 0.5 * CELLS as f32 - 0.5;
         let v = (-sin * dx + cos * dy) / cell + 0.5 * CELLS as f32 - 0.5;
         if u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32 {
             continue;
         }
-        let magnitude = (gx * gx + gy * gy).sqrt();
         if magnitude == 0.0 {
             continue;
         }
         let w = magnitude * (-(dx * dx + dy * dy) / (2.0 * weight_sigma * weight_sigma)).exp();
         // Direction of steepest steered response relative to the frame.
-        let phi = wrap_angle(gy.atan2(gx) - orientation) * to_bin;
+        let phi = wrap_angle(direction - orientation) * to_bin;
         let (u0, v0, p0) = (u.floor(), v.floor(), phi.floor());
         let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
         for (cu, wu) in [(u0, 1.0 - fu), (u0 + 1.0, fu)] {
@@ -173,14 +178,14 @@ fn dominant_orientation(patch: &Patch, x: f32, y: f32, sigma: f32) -> f32 {
     let mut hist = [0.0f32; ORIENTATION_BINS];
     let to_bin = ORIENTATION_BINS as f32 / TAU;
     let limit = (3.0 * sigma).powi(2);
-    for (dx, dy, gx, gy) in patch.pixels(x, y) {
+    for (dx, dy, magnitude, direction) in patch.pixels(x, y) {
         let d2 = dx * dx + dy * dy;
         if d2 > limit {
             continue;
         }
-        let w = (gx * gx + gy * gy).sqrt() * (-d2 / (2.0 * sigma * sigma)).exp();
+        let w = magnitude * (-d2 / (2.0 * sigma * sigma)).exp();
         // Linear vote between the two nearest bins keeps θ* continuous under rotation.
-        let b = wrap_angle(gy.atan2(gx)) * to_bin - 0.5;
+        let b = wrap_angle(direction) * to_bin - 0.5;
         let b0 = b.floor();
         let f = b - b0;
         let i0 = (b0 as i64).rem_euclid(ORIENTATION_BINS as i64) as usize;
