@@ -26,11 +26,21 @@ struct Params {
 // The threshold is max(threshold, relative * the frame's strongest response), as in
 // DetectorConfig::effective_threshold; a re-run after an overflow passes the raised threshold
 // with relative = 0.
+// core_*: the pixels (of this plane's image or tile) whose samples may become candidates;
+// a tile's halo only feeds its neighbours' suppression.
 struct Settings {
     threshold: f32,
     capacity: u32,
     relative: f32,
     _pad: u32,
+    core_x0: u32,
+    core_y0: u32,
+    core_x1: u32,
+    core_y1: u32,
+    origin_x: u32,  // the tile's first pixel in the image (a multiple of every step)
+    origin_y: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Shared with harris_response.wgsl.
@@ -117,6 +127,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (gid.x < m || gid.y < m || gid.x >= params.width - m || gid.y >= params.height - m) {
         return;
     }
+    let px = gid.x * params.step;
+    let py = gid.y * params.step;
+    if (px < settings.core_x0 || py < settings.core_y0 || px >= settings.core_x1 || py >= settings.core_y1) {
+        return;
+    }
     let w = params.width;
     let threshold = max(settings.threshold,
                         settings.relative * bitcast<f32>(atomicLoad(&stats.peak_bits)));
@@ -134,8 +149,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 keep = false;
             }
         }
-        let px = gid.x * params.step;
-        let py = gid.y * params.step;
         if (keep && params.has_prev == 1u && adjacent_max(0u, t, px, py) > v) {
             keep = false;
         }
@@ -146,8 +159,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let o = peak_offset(i, w);
             let slot = atomicAdd(&stats.count, 1u);
             if (slot < settings.capacity) {
+                // In image pixels: the sample's index on the image's grid, then the offset.
                 let g = f32(params.step);
-                candidates[slot] = Candidate((f32(gid.x) + o.x) * g, (f32(gid.y) + o.y) * g, v, (params.scale << 16u) | t);
+                let ix = f32(gid.x + settings.origin_x / params.step);
+                let iy = f32(gid.y + settings.origin_y / params.step);
+                candidates[slot] = Candidate((ix + o.x) * g, (iy + o.y) * g, v, (params.scale << 16u) | t);
             }
         }
     }

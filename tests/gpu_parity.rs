@@ -239,3 +239,37 @@ fn buffers_are_reused_across_frames_and_sizes() {
         "timestamp queries give stage timings"
     );
 }
+
+#[test]
+fn tiled_gpu_runs_match_the_untiled_run_exactly() {
+    if common::gpu().is_none() {
+        return;
+    }
+    // Tiles far smaller than the image (cores of 64 and 100 px, with halos of about 50 px),
+    // so every kind of tile edge cuts through structure.
+    let frame = textured_scene(W, H, 13);
+    let whole_cfg = DetectorConfig::default();
+    let whole = Detector::new(&whole_cfg, Backend::Gpu).unwrap();
+    let expected = whole.candidates(&frame).unwrap();
+    let expected_keypoints = keypoints(&whole.detect(&frame).unwrap());
+    assert!(expected.candidates.len() > 100);
+    for tile in [64, 100] {
+        let cfg = DetectorConfig {
+            gpu_tile_size: tile,
+            ..Default::default()
+        };
+        let tiled = Detector::new(&cfg, Backend::Gpu).unwrap();
+        let run = tiled.candidates(&frame).unwrap();
+        assert_eq!(run.threshold, expected.threshold, "tile {tile}");
+        assert!(
+            run.candidates == expected.candidates,
+            "tile {tile}: {} vs {} candidates",
+            run.candidates.len(),
+            expected.candidates.len()
+        );
+        assert_eq!(
+            keypoints(&tiled.detect(&frame).unwrap()),
+            expected_keypoints
+        );
+    }
+}

@@ -124,6 +124,11 @@ pub struct DetectorConfig {
     /// The descriptor each keypoint carries. Default steered (matchable under rotation and
     /// light changes); `entropy` is the paper's.
     pub descriptor: DescriptorKind,
+    /// Side of the square tiles (core, pixels) the GPU backend cuts frames into; each tile
+    /// carries a halo wide enough for the largest kernel, so the candidates are those of an
+    /// untiled run. 0 (default): tiles only for frames past the device's buffer limits, as
+    /// large as fit.
+    pub gpu_tile_size: u32,
 }
 
 impl Default for DetectorConfig {
@@ -148,6 +153,7 @@ impl Default for DetectorConfig {
             candidate_capacity: 1 << 17,
             seed: 7,
             descriptor: DescriptorKind::Steered,
+            gpu_tile_size: 0,
         }
     }
 }
@@ -252,6 +258,13 @@ impl DetectorConfig {
                 "scales",
                 self.scales,
                 "the largest integration window would exceed a 256-pixel radius",
+            );
+        }
+        if self.gpu_tile_size != 0 && !(64..=1 << 16).contains(&self.gpu_tile_size) {
+            return bad(
+                "gpu_tile_size",
+                self.gpu_tile_size,
+                "must be 0 (automatic) or in 64..=65536",
             );
         }
         if self.max_keypoints == 0 {

@@ -168,7 +168,7 @@ impl Detector {
     pub fn check_size(&self, width: u32, height: u32) -> Result<()> {
         crate::image::check_size("image", width, height)?;
         match &self.gpu {
-            Some(g) => g.check_fits(width, height),
+            Some(g) => g.check_frame(width, height),
             None => Ok(()),
         }
     }

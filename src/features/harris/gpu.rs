@@ -151,7 +151,39 @@ gpu_struct! {
         capacity: u32,
         relative: f32,
         _pad: u32,
+        core_x0: u32,
+        core_y0: u32,
+        core_x1: u32,
+        core_y1: u32,
+        origin_x: u32,
+        origin_y: u32,
+        _pad1: u32,
+        _pad2: u32,
     }
+}
+
+/// One tile of a frame: its pixels in the image, and the core whose candidates it reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Tile {
+    /// First pixel (x, y) in the image; a multiple of every scale's step.
+    origin: (u32, u32),
+    /// Size in pixels (core plus halo, cut by the image).
+    size: (u32, u32),
+    /// The core (x0, y0, x1, y1) in the tile's pixels.
+    core: [u32; 4],
+}
+
+/// What one tile's run found.
+struct TileRun {
+    candidates: Vec<Candidate>,
+    /// The tile's strongest response.
+    strongest: f32,
+    /// The threshold the tile ended at.
+    threshold: f32,
+    /// The highest threshold at which the tile held more than `candidate_capacity`
+    /// candidates (−∞ when it never did): the frame's final threshold lies above it.
+    overflowed_at: f32,
+    timings: Option<GpuTimings>,
 }
 
 gpu_struct! {
@@ -214,7 +246,8 @@ struct FrameResources {
 }
 
 /// Number of image sizes whose buffers are kept at once.
-const CACHED_SIZES: usize = 3;
+/// (Four: a tiled frame has interior, right, bottom and corner tile sizes.)
+const CACHED_SIZES: usize = 4;
 
 /// The GPU Harris stage for one plan; safe to share between threads (frames are serialised).
 pub struct GpuHarris {
@@ -268,7 +301,14 @@ impl GpuHarris {
         &self.ctx
     }
 
-    /// Checks that a `width`×`height` frame fits the device's limits, naming the limit if not.
+    /// Checks that a `width`×`height` frame can run, in tiles if need be (allocating
+    /// nothing); the error names the limit when not even a tile fits.
+    pub fn check_frame(&self, width: u32, height: u32) -> Result<()> {
+        self.tiles(width, height).map(|_| ())
+    }
+
+    /// Checks that a `width`×`height` frame fits the device's limits untiled, naming the
+    /// limit if not.
     pub fn check_fits(&self, width: u32, height: u32) -> Result<()> {
         let plane = width as u64 * height as u64 * 4;
         let planes = [
@@ -390,6 +430,14 @@ impl GpuHarris {
                 capacity: capacity as u32,
                 relative: plan.config.relative_threshold,
                 _pad: 0,
+                core_x0: 0,
+                core_y0: 0,
+                core_x1: width,
+                core_y1: height,
+                origin_x: 0,
+                origin_y: 0,
+                _pad1: 0,
+                _pad2: 0,
             },
         );
         let jobs = |label: &str, list: Vec<Job>| storage_init(device, label, &list);
@@ -660,27 +708,174 @@ impl GpuHarris {
             .write_buffer(&f.gray, 0, bytemuck::cast_slice(gray));
     }
 
-    /// Sets the suppression's threshold: max(threshold, relative × strongest response).
-    fn set_threshold(&self, f: &FrameResources, threshold: f32, relative: f32) {
+    /// Sets the suppression's threshold, max(threshold, relative × strongest response), and
+    /// the core (x0, y0, x1, y1) whose samples may become candidates.
+    fn set_threshold(&self, f: &FrameResources, threshold: f32, relative: f32, tile: &Tile) {
+        let core = tile.core;
         let settings = NmsSettings {
             threshold,
             capacity: self.plan.config.candidate_capacity as u32,
             relative,
             _pad: 0,
+            core_x0: core[0],
+            core_y0: core[1],
+            core_x1: core[2],
+            core_y1: core[3],
+            origin_x: tile.origin.0,
+            origin_y: tile.origin.1,
+            _pad1: 0,
+            _pad2: 0,
         };
         self.ctx
             .queue
             .write_buffer(&f.nms_settings, 0, bytemuck::bytes_of(&settings));
     }
 
+    /// Rows or columns of halo a tile needs around its core so that the responses and the
+    /// suppression of the core's samples see exactly the pixels they would in the whole
+    /// image: the derivative filters' and the window's reach at each scale, plus the
+    /// neighbouring samples the suppression reads (±1 of its scale, ±1.5 steps of the
+    /// adjacent ones). A multiple of the coarsest step, so tiles keep every grid aligned.
+    pub fn tile_halo(&self) -> u32 {
+        let max_step = self.max_step();
+        let reach = self
+            .plan
+            .scales
+            .iter()
+            .map(|sc| {
+                let filter = sc
+                    .derivatives
+                    .iter()
+                    .map(|f| f.column.radius().max(f.row.radius()))
+                    .max()
+                    .unwrap_or(0) as u32;
+                filter + sc.window.radius() as u32 * sc.step + sc.margin
+            })
+            .max()
+            .unwrap_or(0);
+        (reach + 2 * max_step).next_multiple_of(max_step)
+    }
+
+    fn max_step(&self) -> u32 {
+        self.plan.scales.iter().map(|s| s.step).max().unwrap_or(1)
+    }
+
+    /// The tiles of a `width`×`height` frame: one when it fits the device and no tile size is
+    /// configured, otherwise cores of `gpu_tile_size` (or the largest that fit) with halos.
+    fn tiles(&self, width: u32, height: u32) -> Result<Vec<Tile>> {
+        let whole = Tile {
+            origin: (0, 0),
+            size: (width, height),
+            core: [0, 0, width, height],
+        };
+        let configured = self.plan.config.gpu_tile_size;
+        let halo = self.tile_halo();
+        let max_step = self.max_step();
+        let side = if configured > 0 {
+            configured
+        } else if self.check_fits(width, height).is_ok() {
+            return Ok(vec![whole]);
+        } else {
+            // The largest square tile whose planes fit the binding and buffer limits and
+            // whose workgroups fit a dispatch.
+            let limits = &self.ctx.limits;
+            let planes = self.plan.orientations.len().max(self.plan.products.len()) as u64;
+            let bytes = limits
+                .max_storage_buffer_binding_size
+                .min(limits.max_buffer_size);
+            let by_memory = ((bytes / (4 * planes)) as f64).sqrt() as u64;
+            let by_groups = limits.max_compute_workgroups_per_dimension as u64 * 16;
+            let total = by_memory.min(by_groups) as u32;
+            let core = total.saturating_sub(2 * halo) / max_step * max_step;
+            if core == 0 {
+                return self.check_fits(width, height).map(|_| vec![whole]);
+            }
+            core
+        };
+        let side = side.next_multiple_of(max_step);
+        if side >= width && side >= height {
+            return Ok(vec![whole]);
+        }
+        let mut tiles = Vec::new();
+        for y0 in (0..height).step_by(side as usize) {
+            for x0 in (0..width).step_by(side as usize) {
+                let (x1, y1) = ((x0 + side).min(width), (y0 + side).min(height));
+                let origin = (x0.saturating_sub(halo), y0.saturating_sub(halo));
+                let end = ((x1 + halo).min(width), (y1 + halo).min(height));
+                let tile = Tile {
+                    origin,
+                    size: (end.0 - origin.0, end.1 - origin.1),
+                    core: [x0 - origin.0, y0 - origin.1, x1 - origin.0, y1 - origin.1],
+                };
+                self.check_fits(tile.size.0, tile.size.1)?;
+                tiles.push(tile);
+            }
+        }
+        Ok(tiles)
+    }
+
     /// Runs the whole stage on a luminance plane: candidates sorted strongest first, the
-    /// threshold finally used, and per-stage GPU timings.
+    /// threshold finally used, and per-stage GPU timings (summed over tiles).
+    ///
+    /// A frame past the device's limits, or any frame when `gpu_tile_size` is set, runs in
+    /// overlapping tiles (see [`Self::tile_halo`]); each tile reports the candidates of its
+    /// core in image coordinates, and the relative threshold and the capacity rule are then
+    /// applied to the union with the frame's strongest response: the same candidates as an
+    /// untiled run, unless a single tile overflowed the capacity.
     pub fn candidates(
         &self,
         gray: &[f32],
         width: u32,
         height: u32,
     ) -> Result<(Vec<Candidate>, f32, Option<GpuTimings>)> {
+        let tiles = self.tiles(width, height)?;
+        if let [tile] = tiles[..] {
+            let run = self.run_tile(gray, &tile)?;
+            let mut list = run.candidates;
+            sort_candidates(&mut list);
+            return Ok((list, run.threshold, run.timings));
+        }
+        let config = &self.plan.config;
+        let mut pixels = Vec::new();
+        let mut found = Vec::new();
+        let (mut strongest, mut overflowed_at) = (0.0f32, f32::NEG_INFINITY);
+        let mut timings: Option<GpuTimings> = None;
+        for tile in &tiles {
+            let (tw, th) = (tile.size.0 as usize, tile.size.1 as usize);
+            pixels.clear();
+            for y in 0..th {
+                let start = (tile.origin.1 as usize + y) * width as usize + tile.origin.0 as usize;
+                pixels.extend_from_slice(&gray[start..start + tw]);
+            }
+            let run = self.run_tile(&pixels, tile)?;
+            strongest = strongest.max(run.strongest);
+            overflowed_at = overflowed_at.max(run.overflowed_at);
+            found.extend(run.candidates);
+            if let Some(t) = run.timings {
+                let sum = timings.get_or_insert_with(GpuTimings::default);
+                sum.filter_bank_ms += t.filter_bank_ms;
+                sum.structure_tensor_ms += t.structure_tensor_ms;
+                sum.response_ms += t.response_ms;
+                sum.nms_ms += t.nms_ms;
+            }
+        }
+        let mut threshold = config.effective_threshold(strongest);
+        let capacity = config.candidate_capacity;
+        while threshold <= overflowed_at
+            || found.iter().filter(|c| c.response > threshold).count() > capacity
+        {
+            threshold = raised_threshold(threshold);
+        }
+        found.retain(|c| c.response > threshold);
+        sort_candidates(&mut found);
+        Ok((found, threshold, timings))
+    }
+
+    /// One tile (or the whole frame) through every pass, with one readback of the count and
+    /// the strongest response, re-runs of the suppression while the list overflows, and the
+    /// readback of the candidates.
+    fn run_tile(&self, gray: &[f32], tile: &Tile) -> Result<TileRun> {
+        let (width, height) = tile.size;
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
         self.select_frame(&mut frames, width, height)?;
         let f = &frames[0];
@@ -688,7 +883,7 @@ impl GpuHarris {
         let queue = &self.ctx.queue;
         self.upload(f, gray);
         let config = &self.plan.config;
-        self.set_threshold(f, config.threshold, config.relative_threshold);
+        self.set_threshold(f, config.threshold, config.relative_threshold, tile);
         let mut enc = device.create_command_encoder(&Default::default());
         self.encode_responses(&mut enc, f, self.plan.scales.len() - 1, false);
         self.encode_nms(&mut enc, f);
@@ -704,9 +899,11 @@ impl GpuHarris {
             None => None,
         };
         let capacity = self.plan.config.candidate_capacity;
+        let mut overflowed_at = f32::NEG_INFINITY;
         while count > capacity {
+            overflowed_at = threshold;
             threshold = raised_threshold(threshold);
-            self.set_threshold(f, threshold, 0.0);
+            self.set_threshold(f, threshold, 0.0, tile);
             let mut enc = device.create_command_encoder(&Default::default());
             self.encode_nms(&mut enc, f);
             queue.submit([enc.finish()]);
@@ -719,9 +916,13 @@ impl GpuHarris {
         }
         queue.submit([enc.finish()]);
         let raw = read_staging(device, &f.candidate_staging, bytes)?;
-        let mut list: Vec<Candidate> = bytemuck::pod_collect_to_vec(&raw);
-        sort_candidates(&mut list);
-        Ok((list, threshold, timings))
+        Ok(TileRun {
+            candidates: bytemuck::pod_collect_to_vec(&raw),
+            strongest,
+            threshold,
+            overflowed_at,
+            timings,
+        })
     }
 
     fn timings(&self, raw: &[u8]) -> GpuTimings {
