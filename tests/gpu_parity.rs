@@ -273,3 +273,45 @@ fn tiled_gpu_runs_match_the_untiled_run_exactly() {
         );
     }
 }
+
+#[test]
+fn frames_in_flight_give_the_results_of_one_frame_at_a_time() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let cfg = DetectorConfig::default();
+    let detector = Detector::new(&cfg, Backend::Gpu).unwrap();
+    // Sizes change mid-stream, and a decoding error passes through in its place.
+    let frames: Vec<steernav::Frame> = [(192, 144, 1), (192, 144, 2), (160, 120, 3), (192, 144, 4)]
+        .iter()
+        .map(|&(w, h, seed)| textured_scene(w, h, seed))
+        .collect();
+    let expected: Vec<_> = frames
+        .iter()
+        .map(|f| keypoints(&detector.detect(f).unwrap()))
+        .collect();
+    let mut items: Vec<(usize, steernav::error::Result<steernav::Frame>)> =
+        frames.iter().cloned().map(Ok).enumerate().collect();
+    items.insert(
+        2,
+        (
+            99,
+            Err(steernav::error::Error::Config {
+                field: "test",
+                value: "x".into(),
+                reason: "a frame that failed to decode".into(),
+            }),
+        ),
+    );
+    let mut seen = Vec::new();
+    detector.detect_stream(items, |tag, result| match result {
+        Ok((frame, d)) => {
+            assert_eq!(frame.width, frames[tag].width);
+            assert_eq!(d.backend, "gpu");
+            assert_eq!(keypoints(&d), expected[tag], "frame {tag}");
+            seen.push(tag);
+        }
+        Err(_) => seen.push(tag),
+    });
+    assert_eq!(seen, [0, 1, 99, 2, 3]);
+}

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::sync_channel;
-use std::time::Instant;
 
 use steernav::error::{Error, Result};
 use steernav::features::Detector;
@@ -209,10 +208,14 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
             });
         }
         drop(tx);
-        for (i, frame) in rx {
+        // Two frames in flight on the GPU: the next image's passes run while this one's
+        // keypoints are merged, described and written.
+        detector.detect_stream(rx, |i, result| {
             let image = images[i].clone();
             let output = output_path(opts, &image);
-            let outcome = match frame.and_then(|f| detect_one(detector, opts, &image, &output, &f))
+            let outcome = match result
+                .map_err(|e| name_input(e, &image))
+                .and_then(|(frame, d)| write_outputs(detector, opts, &image, &output, &frame, d))
             {
                 Ok(o) => o,
                 Err(e) => {
@@ -226,7 +229,7 @@ pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
                 output,
                 outcome,
             });
-        }
+        });
     });
     bar.finish_and_clear();
     let entries: Vec<Entry> = entries
@@ -252,15 +255,9 @@ fn previous_figures(json: &Path) -> Option<(u32, u32, usize, String)> {
     ))
 }
 
-fn detect_one(
-    detector: &Detector,
-    opts: &BatchOptions,
-    image: &Path,
-    output: &Path,
-    frame: &Frame,
-) -> Result<Outcome> {
-    let t = Instant::now();
-    let d = detector.detect(frame).map_err(|e| match e {
+/// A size error names the image it came from.
+pub fn name_input(e: Error, image: &Path) -> Error {
+    match e {
         Error::ImageSize {
             width,
             height,
@@ -273,8 +270,20 @@ fn detect_one(
             reason,
         },
         other => other,
-    })?;
-    let ms = t.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+/// Writes an image's JSON (and picture) and returns its summary row.
+fn write_outputs(
+    detector: &Detector,
+    opts: &BatchOptions,
+    image: &Path,
+    output: &Path,
+    frame: &Frame,
+    d: steernav::Detection,
+) -> Result<Outcome> {
+    let t = &d.timings;
+    let ms = t.harris_ms + t.merge_ms + t.descriptor_ms;
     let (candidates, backend) = (d.candidates, d.backend);
     let record = ImageKeypoints::new(image, frame, d);
     write_atomic(output, record.to_json().as_bytes())?;

@@ -68,12 +68,21 @@ pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
     let scales: Vec<f32> = detector.plan().scales.iter().map(|s| s.sigma_d).collect();
     let names = output_names(&cmd.images);
     let mut failed = 0;
-    for (path, name) in cmd.images.iter().zip(&names) {
+    let mut stdout_failed = None;
+    // Frames are decoded lazily, so the next image decodes while the GPU works on the last.
+    let items = cmd
+        .images
+        .iter()
+        .enumerate()
+        .map(|(k, path)| (k, Frame::load_limited(path, cmd.detector.max_pixels)));
+    detector.detect_stream(items, |k, result| {
+        if stdout_failed.is_some() {
+            return;
+        }
+        let (path, name) = (&cmd.images[k], &names[k]);
         let run = || -> anyhow::Result<()> {
-            let frame = Frame::load_limited(path, cmd.detector.max_pixels)?;
-            let d = detector
-                .detect(&frame)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            // Decoding errors name the file already; size errors get its name here.
+            let (frame, d) = result.map_err(|e| crate::batch::name_input(e, path))?;
             eprintln!("{}", summary_line(path, &d, &detector));
             let record = ImageKeypoints::new(path, &frame, d);
             let (text, ext) = if cmd.csv {
@@ -96,11 +105,15 @@ pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
         if let Err(e) = run() {
             // Stdout failing is not this image's fault and ends the command.
             if e.is::<StdoutFailed>() {
-                return Err(e);
+                stdout_failed = Some(e);
+                return;
             }
             eprintln!("error: {}", crate::error_chain(&e));
             failed += 1;
         }
+    });
+    if let Some(e) = stdout_failed {
+        return Err(e);
     }
     Ok(if failed > 0 {
         ExitCode::FAILURE

@@ -16,6 +16,7 @@ use super::merge::merge;
 use super::steered::{describe_steered, GpuSteered};
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
+use crate::features::harris::gpu::PendingFrame;
 use crate::features::harris::{GpuHarris, GpuTimings};
 use crate::gpu::GpuContext;
 use crate::image::Frame;
@@ -194,28 +195,105 @@ impl Detector {
                 Err(e) => return Err(e),
             }
         }
-        let (candidates, threshold, cpu) =
-            self.cpu
-                .candidates(&frame.gray, frame.width as usize, frame.height as usize);
-        Ok(HarrisRun {
-            candidates,
-            threshold,
-            backend: "cpu",
-            gpu: None,
-            cpu: Some(cpu),
-        })
+        Ok(self.cpu_candidates(frame))
     }
 
     /// Keypoints with descriptors of one frame.
     pub fn detect(&self, frame: &Frame) -> Result<Detection> {
         let t0 = Instant::now();
+        let run = self.candidates(frame)?;
+        self.complete(frame, run, t0)
+    }
+
+    /// Detects on a stream of frames, in order, with two frames in flight on the GPU: the
+    /// passes of the next frame run while this one's candidates are read back, merged and
+    /// described, and nothing waits on the device between frames. Each item carries a tag
+    /// (an index, a path) and a frame or the error that stopped its decoding, which `done`
+    /// receives unchanged. Results are those of [`Self::detect`] frame by frame; on the CPU it
+    /// is `detect` in a loop.
+    pub fn detect_stream<T>(
+        &self,
+        items: impl IntoIterator<Item = (T, Result<Frame>)>,
+        mut done: impl FnMut(T, Result<(Frame, Detection)>),
+    ) {
+        let Some(g) = &self.gpu else {
+            for (tag, frame) in items {
+                done(tag, frame.and_then(|f| self.detect(&f).map(|d| (f, d))));
+            }
+            return;
+        };
+        type Waiting<T> = (T, Frame, Instant, Result<PendingFrame>);
+        let complete = |(tag, frame, t0, pending): Waiting<T>| {
+            let run = pending
+                .and_then(|p| g.finish(p))
+                .map(|(candidates, threshold, gpu)| HarrisRun {
+                    candidates,
+                    threshold,
+                    backend: "gpu",
+                    gpu,
+                    cpu: None,
+                });
+            let run = match run {
+                Err(Error::GpuLimit(msg)) if self.fallback => {
+                    log::warn!("{msg}; this image goes to the CPU backend");
+                    Ok(self.cpu_candidates(&frame))
+                }
+                other => other,
+            };
+            let result = run.and_then(|run| self.complete(&frame, run, t0));
+            (tag, result.map(|d| (frame, d)))
+        };
+        let mut waiting: Option<Waiting<T>> = None;
+        for (tag, frame) in items {
+            let frame = match frame {
+                Ok(f) => f,
+                Err(e) => {
+                    if let Some(w) = waiting.take() {
+                        let (t, r) = complete(w);
+                        done(t, r);
+                    }
+                    done(tag, Err(e));
+                    continue;
+                }
+            };
+            let t0 = Instant::now();
+            let pending = crate::image::check_size("image", frame.width, frame.height)
+                .and_then(|_| g.submit(&frame.gray, frame.width, frame.height));
+            if let Some(w) = waiting.take() {
+                let (t, r) = complete(w);
+                done(t, r);
+            }
+            waiting = Some((tag, frame, t0, pending));
+        }
+        if let Some(w) = waiting.take() {
+            let (t, r) = complete(w);
+            done(t, r);
+        }
+    }
+
+    /// The CPU Harris stage on a frame, as a [`HarrisRun`].
+    fn cpu_candidates(&self, frame: &Frame) -> HarrisRun {
+        let (candidates, threshold, cpu) =
+            self.cpu
+                .candidates(&frame.gray, frame.width as usize, frame.height as usize);
+        HarrisRun {
+            candidates,
+            threshold,
+            backend: "cpu",
+            gpu: None,
+            cpu: Some(cpu),
+        }
+    }
+
+    /// Merge and descriptors after the Harris stage; `t0` is when the frame's Harris began.
+    fn complete(&self, frame: &Frame, run: HarrisRun, t0: Instant) -> Result<Detection> {
         let HarrisRun {
             candidates,
             threshold,
             backend,
             gpu,
             cpu,
-        } = self.candidates(frame)?;
+        } = run;
         let t1 = Instant::now();
         let clusters = merge(&candidates, &self.plan);
         let t2 = Instant::now();

@@ -101,6 +101,17 @@ pub fn bind_at(
 /// Maps the first `bytes` bytes of a staging buffer (after the submission that filled it),
 /// copies them out and unmaps.
 pub fn read_staging(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+    read_staging_after(device, buffer, bytes, None)
+}
+
+/// [`read_staging`] waiting only for `submission` (the latest when `None`): work submitted
+/// after it, such as the next frame, keeps running.
+pub fn read_staging_after(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+    submission: Option<wgpu::SubmissionIndex>,
+) -> Result<Vec<u8>> {
     if bytes == 0 {
         return Ok(Vec::new());
     }
@@ -110,7 +121,10 @@ pub fn read_staging(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) ->
         let _ = tx.send(r);
     });
     device
-        .poll(wgpu::PollType::wait_indefinitely())
+        .poll(wgpu::PollType::Wait {
+            submission_index: submission,
+            timeout: None,
+        })
         .map_err(|e| gpu_error("waiting for the device", e))?;
     rx.recv()
         .map_err(|e| gpu_error("the readback's map callback never ran", e))?

@@ -13,7 +13,9 @@ use crate::features::{harris::HarrisPlan, steerable::Kernel1d};
 use crate::features::{raised_threshold, sort_candidates, Candidate};
 use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::{compute_pipeline, shader_module, PipelineSet};
-use crate::gpu::util::{bind, groups_2d, read_staging, staging, storage, storage_init, uniform};
+use crate::gpu::util::{
+    bind, groups_2d, read_staging_after, staging, storage, storage_init, uniform,
+};
 use crate::gpu::GpuContext;
 
 /// The stage's WGSL sources with their file names.
@@ -173,6 +175,26 @@ struct Tile {
     core: [u32; 4],
 }
 
+/// Frames that may be in flight at once (double-buffered resources).
+pub const FLIGHT_SLOTS: usize = 2;
+/// The resources' slot for synchronous runs, apart from the in-flight ones.
+const SYNC_SLOT: usize = FLIGHT_SLOTS;
+
+/// A frame submitted with [`GpuHarris::submit`], to be read with [`GpuHarris::finish`].
+#[must_use = "a submitted frame holds its slot until it is finished"]
+pub struct PendingFrame {
+    slot: usize,
+    tile: Tile,
+    work: Pending,
+}
+
+type HarrisResult = (Vec<Candidate>, f32, Option<GpuTimings>);
+
+enum Pending {
+    Submitted(wgpu::SubmissionIndex),
+    Done(HarrisResult),
+}
+
 /// What one tile's run found.
 struct TileRun {
     candidates: Vec<Candidate>,
@@ -239,15 +261,22 @@ struct FrameResources {
     nms_settings: wgpu::Buffer,
     counter: wgpu::Buffer,
     candidates: wgpu::Buffer,
-    counter_staging: wgpu::Buffer,
+    /// The frame's one readback: the count and the strongest response, the timestamps, and
+    /// the first `readback_candidates` candidates (see [`ReadbackLayout`]).
+    readback: wgpu::Buffer,
+    layout: ReadbackLayout,
+    /// Candidates past `readback_candidates`, read only when that many survive.
     candidate_staging: wgpu::Buffer,
-    queries: Option<(wgpu::QuerySet, wgpu::Buffer, wgpu::Buffer)>,
+    queries: Option<(wgpu::QuerySet, wgpu::Buffer)>,
+    /// Which in-flight slot these buffers belong to (see [`GpuHarris::submit`]).
+    slot: usize,
     scales: Vec<ScaleGroups>,
 }
 
 /// Number of image sizes whose buffers are kept at once.
-/// (Four: a tiled frame has interior, right, bottom and corner tile sizes.)
-const CACHED_SIZES: usize = 4;
+/// Frame resources kept at once: a tiled frame has interior, right, bottom and corner tile
+/// sizes, and in-flight frames their own slots.
+const CACHED_SIZES: usize = 6;
 
 /// The GPU Harris stage for one plan; safe to share between threads (frames are serialised).
 pub struct GpuHarris {
@@ -259,6 +288,8 @@ pub struct GpuHarris {
     derivative_rows: Vec<Vec<TapRef>>,
     windows: Vec<TapRef>,
     frames: Mutex<Vec<FrameResources>>,
+    /// Which in-flight slots hold a submitted frame not finished yet.
+    busy: Mutex<[bool; FLIGHT_SLOTS]>,
 }
 
 impl GpuHarris {
@@ -293,6 +324,7 @@ impl GpuHarris {
             derivative_rows,
             windows,
             frames: Mutex::new(Vec::new()),
+            busy: Mutex::new([false; FLIGHT_SLOTS]),
         }
     }
 
@@ -347,30 +379,41 @@ impl GpuHarris {
         Ok(())
     }
 
-    /// Allocates (or finds) the buffers for a frame size and moves them to the front of the
-    /// cache, where the caller finds them as `frames[0]`.
-    fn select_frame(
+    /// Finds (or allocates) the buffers of a frame size and slot and moves them to the front
+    /// of the cache. Beyond [`CACHED_SIZES`] entries the least recently used one whose slot is
+    /// not in flight is dropped.
+    fn select_frame<'a>(
         &self,
-        frames: &mut Vec<FrameResources>,
+        frames: &'a mut Vec<FrameResources>,
         width: u32,
         height: u32,
-    ) -> Result<()> {
+        slot: usize,
+    ) -> Result<&'a FrameResources> {
         if let Some(i) = frames
             .iter()
-            .position(|f| f.width == width && f.height == height)
+            .position(|f| f.width == width && f.height == height && f.slot == slot)
         {
             let f = frames.remove(i);
             frames.insert(0, f);
-            return Ok(());
+        } else {
+            self.check_fits(width, height)?;
+            let f = self.allocate(width, height, slot);
+            frames.insert(0, f);
+            let busy = *self.busy.lock().unwrap_or_else(|e| e.into_inner());
+            while frames.len() > CACHED_SIZES {
+                let idle = frames
+                    .iter()
+                    .rposition(|f| f.slot >= FLIGHT_SLOTS || !busy[f.slot]);
+                match idle {
+                    Some(i) if i > 0 => drop(frames.remove(i)),
+                    _ => break,
+                }
+            }
         }
-        self.check_fits(width, height)?;
-        let f = self.allocate(width, height);
-        frames.insert(0, f);
-        frames.truncate(CACHED_SIZES);
-        Ok(())
+        Ok(&frames[0])
     }
 
-    fn allocate(&self, width: u32, height: u32) -> FrameResources {
+    fn allocate(&self, width: u32, height: u32, slot: usize) -> FrameResources {
         let device = &self.ctx.device;
         let pipes = self.ctx.pipelines::<HarrisPipelines>();
         let plan = &self.plan;
@@ -414,14 +457,18 @@ impl GpuHarris {
                 usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            (
-                set,
-                resolve,
-                staging(device, "timestamps", count as u64 * 8),
-            )
+            (set, resolve)
         });
-        let counter_staging = staging(device, "count and strongest response readback", 8);
-        let candidate_staging = staging(device, "candidate readback", capacity * 16);
+        let layout = ReadbackLayout::new(
+            queries.as_ref().map_or(0, |(_, r)| r.size()),
+            capacity.min(READBACK_CANDIDATES),
+        );
+        let readback = staging(device, "count, timestamps and candidates", layout.size());
+        let candidate_staging = staging(
+            device,
+            "candidate overflow readback",
+            (capacity - layout.candidates) * 16,
+        );
         let nms_settings = uniform(
             device,
             "nms settings",
@@ -609,9 +656,11 @@ impl GpuHarris {
             nms_settings,
             counter,
             candidates,
-            counter_staging,
+            readback,
+            layout,
             candidate_staging,
             queries,
+            slot,
             scales,
         }
     }
@@ -634,7 +683,7 @@ impl GpuHarris {
             let stamp = |i: u32| {
                 f.queries
                     .as_ref()
-                    .map(|(set, _, _)| wgpu::ComputePassTimestampWrites {
+                    .map(|(set, _)| wgpu::ComputePassTimestampWrites {
                         query_set: set,
                         beginning_of_pass_write_index: Some(8 * s as u32 + 2 * i),
                         end_of_pass_write_index: Some(8 * s as u32 + 2 * i + 1),
@@ -687,7 +736,7 @@ impl GpuHarris {
         for (s, g) in f.scales.iter().enumerate() {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("nms"),
-                timestamp_writes: f.queries.as_ref().map(|(set, _, _)| {
+                timestamp_writes: f.queries.as_ref().map(|(set, _)| {
                     wgpu::ComputePassTimestampWrites {
                         query_set: set,
                         beginning_of_pass_write_index: Some(8 * s as u32 + 6),
@@ -699,7 +748,17 @@ impl GpuHarris {
             pass.set_bind_group(0, &g.nms, &[]);
             pass.dispatch_workgroups(g.grid_groups.0, g.grid_groups.1, 1);
         }
-        enc.copy_buffer_to_buffer(&f.counter, 0, &f.counter_staging, 0, None);
+        // The count and the first candidates go to the readback with one map: most frames
+        // need nothing more.
+        let l = &f.layout;
+        enc.copy_buffer_to_buffer(&f.counter, 0, &f.readback, 0, Some(8));
+        enc.copy_buffer_to_buffer(
+            &f.candidates,
+            0,
+            &f.readback,
+            l.candidates_at,
+            Some(l.candidates * 16),
+        );
     }
 
     fn upload(&self, f: &FrameResources, gray: &[f32]) {
@@ -871,58 +930,150 @@ impl GpuHarris {
         Ok((found, threshold, timings))
     }
 
-    /// One tile (or the whole frame) through every pass, with one readback of the count and
-    /// the strongest response, re-runs of the suppression while the list overflows, and the
-    /// readback of the candidates.
+    /// One tile (or the whole frame) through every pass and its readback, on the slot kept
+    /// for synchronous runs.
     fn run_tile(&self, gray: &[f32], tile: &Tile) -> Result<TileRun> {
+        let (submission, slot) = self.submit_tile(gray, tile, SYNC_SLOT)?;
+        self.finish_tile(tile, slot, submission)
+    }
+
+    /// Uploads a tile and submits every pass and the copy into the readback, without waiting.
+    fn submit_tile(
+        &self,
+        gray: &[f32],
+        tile: &Tile,
+        slot: usize,
+    ) -> Result<(wgpu::SubmissionIndex, usize)> {
         let (width, height) = tile.size;
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
-        self.select_frame(&mut frames, width, height)?;
-        let f = &frames[0];
+        let f = self.select_frame(&mut frames, width, height, slot)?;
         let device = &self.ctx.device;
-        let queue = &self.ctx.queue;
         self.upload(f, gray);
         let config = &self.plan.config;
         self.set_threshold(f, config.threshold, config.relative_threshold, tile);
         let mut enc = device.create_command_encoder(&Default::default());
         self.encode_responses(&mut enc, f, self.plan.scales.len() - 1, false);
         self.encode_nms(&mut enc, f);
-        if let Some((set, resolve, stage)) = &f.queries {
+        if let Some((set, resolve)) = &f.queries {
             enc.resolve_query_set(set, 0..8 * self.plan.scales.len() as u32, resolve, 0);
-            enc.copy_buffer_to_buffer(resolve, 0, stage, 0, None);
+            let l = &f.layout;
+            enc.copy_buffer_to_buffer(resolve, 0, &f.readback, l.timestamps_at, None);
         }
-        queue.submit([enc.finish()]);
-        let (mut count, strongest) = read_stats(device, f)?;
+        Ok((self.ctx.queue.submit([enc.finish()]), slot))
+    }
+
+    /// Waits for a submitted tile, maps its readback once, and re-runs the suppression with a
+    /// raised threshold while more than `candidate_capacity` candidates survive (the
+    /// responses are still in place: the slot is not reused before this returns).
+    fn finish_tile(
+        &self,
+        tile: &Tile,
+        slot: usize,
+        submission: wgpu::SubmissionIndex,
+    ) -> Result<TileRun> {
+        let (width, height) = tile.size;
+        let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+        let f = self.select_frame(&mut frames, width, height, slot)?;
+        let device = &self.ctx.device;
+        let queue = &self.ctx.queue;
+        let config = &self.plan.config;
+        let mut back = read_back(device, f, submission)?;
+        let strongest = back.strongest;
+        let timings = f.queries.as_ref().map(|_| self.timings(&back.timestamps));
         let mut threshold = config.effective_threshold(strongest);
-        let timings = match &f.queries {
-            Some((_, _, stage)) => Some(self.timings(&read_staging(device, stage, stage.size())?)),
-            None => None,
-        };
-        let capacity = self.plan.config.candidate_capacity;
+        let capacity = config.candidate_capacity;
         let mut overflowed_at = f32::NEG_INFINITY;
-        while count > capacity {
+        while back.count > capacity {
             overflowed_at = threshold;
             threshold = raised_threshold(threshold);
             self.set_threshold(f, threshold, 0.0, tile);
             let mut enc = device.create_command_encoder(&Default::default());
             self.encode_nms(&mut enc, f);
-            queue.submit([enc.finish()]);
-            count = read_stats(device, f)?.0;
+            back = read_back(device, f, queue.submit([enc.finish()]))?;
         }
-        let bytes = count as u64 * 16;
-        let mut enc = device.create_command_encoder(&Default::default());
-        if bytes > 0 {
-            enc.copy_buffer_to_buffer(&f.candidates, 0, &f.candidate_staging, 0, bytes);
+        let mut candidates = back.candidates;
+        let held = f.layout.candidates;
+        if back.count as u64 > held {
+            let bytes = (back.count as u64 - held) * 16;
+            let mut enc = device.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(&f.candidates, held * 16, &f.candidate_staging, 0, bytes);
+            let raw = read_staging_after(
+                device,
+                &f.candidate_staging,
+                bytes,
+                Some(queue.submit([enc.finish()])),
+            )?;
+            candidates.extend(bytemuck::pod_collect_to_vec::<u8, Candidate>(&raw));
         }
-        queue.submit([enc.finish()]);
-        let raw = read_staging(device, &f.candidate_staging, bytes)?;
         Ok(TileRun {
-            candidates: bytemuck::pod_collect_to_vec(&raw),
+            candidates,
             strongest,
             threshold,
             overflowed_at,
             timings,
         })
+    }
+
+    /// Submits a frame's passes on one of [`FLIGHT_SLOTS`] double-buffered slots and returns
+    /// at once; [`Self::finish`] reads the candidates. With two frames submitted, the GPU works
+    /// on the second while the caller reads and merges the first. A frame that needs tiles
+    /// runs synchronously here and `finish` only hands its result over.
+    pub fn submit(&self, gray: &[f32], width: u32, height: u32) -> Result<PendingFrame> {
+        let tiles = self.tiles(width, height)?;
+        let slot = {
+            let mut busy = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+            let free = (0..FLIGHT_SLOTS).find(|&s| !busy[s]).ok_or_else(|| Error::Gpu {
+                operation: format!(
+                    "submitting a frame: {FLIGHT_SLOTS} frames are already in flight; finish one first"
+                ),
+                source: None,
+            })?;
+            busy[free] = true;
+            free
+        };
+        let release = |r: Result<PendingFrame>| {
+            if r.is_err() {
+                self.busy.lock().unwrap_or_else(|e| e.into_inner())[slot] = false;
+            }
+            r
+        };
+        if let [tile] = tiles[..] {
+            release(
+                self.submit_tile(gray, &tile, slot)
+                    .map(|(submission, slot)| PendingFrame {
+                        slot,
+                        tile,
+                        work: Pending::Submitted(submission),
+                    }),
+            )
+        } else {
+            let done = self.candidates(gray, width, height);
+            release(done.map(|result| PendingFrame {
+                slot,
+                tile: tiles[0],
+                work: Pending::Done(result),
+            }))
+        }
+    }
+
+    /// The candidates of a submitted frame, as [`Self::candidates`] gives them.
+    pub fn finish(
+        &self,
+        pending: PendingFrame,
+    ) -> Result<(Vec<Candidate>, f32, Option<GpuTimings>)> {
+        let PendingFrame { slot, tile, work } = pending;
+        let result = match work {
+            Pending::Done(result) => Ok(result),
+            Pending::Submitted(submission) => {
+                self.finish_tile(&tile, slot, submission).map(|run| {
+                    let mut list = run.candidates;
+                    sort_candidates(&mut list);
+                    (list, run.threshold, run.timings)
+                })
+            }
+        };
+        self.busy.lock().unwrap_or_else(|e| e.into_inner())[slot] = false;
+        result
     }
 
     fn timings(&self, raw: &[u8]) -> GpuTimings {
@@ -950,8 +1101,7 @@ impl GpuHarris {
         s: usize,
     ) -> Result<Vec<Vec<f32>>> {
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
-        self.select_frame(&mut frames, width, height)?;
-        let f = &frames[0];
+        let f = self.select_frame(&mut frames, width, height, SYNC_SLOT)?;
         self.upload(f, gray);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.encode_responses(&mut enc, f, s, true);
@@ -969,8 +1119,7 @@ impl GpuHarris {
     /// Harris responses of every scale and orientation (parity tests, inspection).
     pub fn responses(&self, gray: &[f32], width: u32, height: u32) -> Result<ResponseStack> {
         let mut frames = self.frames.lock().unwrap_or_else(|e| e.into_inner());
-        self.select_frame(&mut frames, width, height)?;
-        let f = &frames[0];
+        let f = self.select_frame(&mut frames, width, height, SYNC_SLOT)?;
         self.upload(f, gray);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.encode_responses(&mut enc, f, self.plan.scales.len() - 1, false);
@@ -992,11 +1141,63 @@ impl GpuHarris {
     }
 }
 
-/// The candidate count and the strongest response of the last submission.
-fn read_stats(device: &wgpu::Device, f: &FrameResources) -> Result<(usize, f32)> {
-    let raw = read_staging(device, &f.counter_staging, 8)?;
+/// Candidates copied into the readback with the count: enough for a 1920×1080 frame at the
+/// defaults (about 30,000), 512 KiB.
+const READBACK_CANDIDATES: u64 = 32_768;
+
+/// Where each part lies in a frame's readback buffer.
+#[derive(Clone, Copy, Debug)]
+struct ReadbackLayout {
+    timestamps_at: u64,
+    timestamp_bytes: u64,
+    candidates_at: u64,
+    /// Candidates the readback holds.
+    candidates: u64,
+}
+
+impl ReadbackLayout {
+    fn new(timestamp_bytes: u64, candidates: u64) -> Self {
+        Self {
+            timestamps_at: 16,
+            timestamp_bytes,
+            candidates_at: 16 + timestamp_bytes,
+            candidates,
+        }
+    }
+
+    fn size(&self) -> u64 {
+        self.candidates_at + self.candidates * 16
+    }
+}
+
+/// What one map of a frame's readback gives.
+struct Readback {
+    count: usize,
+    strongest: f32,
+    timestamps: Vec<u8>,
+    /// The first min(count, layout.candidates) candidates.
+    candidates: Vec<Candidate>,
+}
+
+/// Maps the readback once `submission` has run.
+fn read_back(
+    device: &wgpu::Device,
+    f: &FrameResources,
+    submission: wgpu::SubmissionIndex,
+) -> Result<Readback> {
+    let l = &f.layout;
+    let raw = read_staging_after(device, &f.readback, l.size(), Some(submission))?;
     let stats: Stats = bytemuck::pod_read_unaligned(&raw[..8]);
-    Ok((stats.count as usize, f32::from_bits(stats.peak_bits)))
+    let count = stats.count as usize;
+    let held = (count as u64).min(l.candidates) as usize;
+    let at = l.candidates_at as usize;
+    Ok(Readback {
+        count,
+        strongest: f32::from_bits(stats.peak_bits),
+        timestamps: raw[l.timestamps_at as usize..(l.timestamps_at + l.timestamp_bytes) as usize]
+            .to_vec(),
+        candidates: bytemuck::pod_collect_to_vec(&raw[at..at + held * 16]),
+    })
 }
 
 #[cfg(test)]
