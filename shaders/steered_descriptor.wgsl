@@ -49,6 +49,34 @@ var<workgroup> hist: array<f32, 36>;
 var<workgroup> desc: array<f32, 128>;
 var<workgroup> frame_angle: f32;
 
+// CPU twin: fast_atan2 in src/features/steered/mod.rs (within 1e-5 rad of atan2).
+fn fast_atan2(y: f32, x: f32) -> f32 {
+    let ax = abs(x);
+    let ay = abs(y);
+    var num = ay;
+    var den = ax;
+    if (ay > ax) {
+        num = ax;
+        den = ay;
+    }
+    if (den == 0.0) {
+        return 0.0;
+    }
+    let z = num / den;
+    let z2 = z * z;
+    var a = z * (0.99997726 + z2 * (-0.33262347 + z2 * (0.19354346 + z2 * (-0.11643287 + z2 * (0.05265332 + z2 * -0.0117212)))));
+    if (ay > ax) {
+        a = 1.5707964 - a;
+    }
+    if (x < 0.0) {
+        a = 3.1415927 - a;
+    }
+    if (y < 0.0) {
+        a = -a;
+    }
+    return a;
+}
+
 fn wrap_angle(a: f32) -> f32 {
     return a - TAU * floor(a / TAU);
 }
@@ -137,8 +165,10 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
             }
             let g_x = scratch[gx + e];
             let g_y = scratch[gy + e];
-            let w = sqrt(g_x * g_x + g_y * g_y) * exp(-d2 / (2.0 * sigma_o * sigma_o));
-            let b = wrap_angle(atan2(g_y, g_x)) * to_bin_o - 0.5;
+            // The Gaussian window as the product of its separable factors, as on the CPU.
+            let w = sqrt(g_x * g_x + g_y * g_y)
+                * (exp(-(dx * dx) / (2.0 * sigma_o * sigma_o)) * exp(-(dy * dy) / (2.0 * sigma_o * sigma_o)));
+            let b = wrap_angle(fast_atan2(g_y, g_x)) * to_bin_o - 0.5;
             let b0 = floor(b);
             let f = b - b0;
             let i0 = u32((i32(b0) + i32(BINS)) % i32(BINS));
@@ -200,8 +230,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
         if (magnitude == 0.0) {
             continue;
         }
-        let w = magnitude * exp(-(dx * dx + dy * dy) / (2.0 * weight_sigma * weight_sigma));
-        let phi = wrap_angle(atan2(g_y, g_x) - orientation) * to_bin;
+        let w = magnitude
+            * (exp(-(dx * dx) / (2.0 * weight_sigma * weight_sigma)) * exp(-(dy * dy) / (2.0 * weight_sigma * weight_sigma)));
+        let phi = wrap_angle(fast_atan2(g_y, g_x) - orientation) * to_bin;
         let u0 = floor(u);
         let v0 = floor(v);
         let p0 = floor(phi);

@@ -4,8 +4,8 @@
 use std::f32::consts::TAU;
 
 use super::{
-    nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS, CLIP, DIRECTIONS,
-    ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
+    fast_atan2, nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS, CLIP,
+    DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
 };
 use crate::features::steerable::Kernel1d;
 
@@ -47,24 +47,22 @@ impl Patch {
             for (k, p) in source.iter_mut().enumerate() {
                 *p = line[(ox + k as i64).clamp(0, width as i64 - 1) as usize];
             }
-            for i in 0..inner {
-                rows[j * inner + i] = kernel
-                    .taps
-                    .iter()
-                    .zip(&source[i..])
-                    .map(|(&w, &p)| w * p)
-                    .sum();
+            // Tap by tap across the row: each output still sums its taps in order, and the
+            // loop runs across outputs, which vectorises (a sum per output is a serial chain).
+            let out = &mut rows[j * inner..(j + 1) * inner];
+            for (t, &w) in kernel.taps.iter().enumerate() {
+                for (o, &p) in out.iter_mut().zip(&source[t..]) {
+                    *o += w * p;
+                }
             }
         }
         let mut smooth = vec![0.0f32; inner * inner];
         for j in 0..inner {
-            for i in 0..inner {
-                smooth[j * inner + i] = kernel
-                    .taps
-                    .iter()
-                    .enumerate()
-                    .map(|(t, &w)| w * rows[(j + t) * inner + i])
-                    .sum();
+            let out = &mut smooth[j * inner..(j + 1) * inner];
+            for (t, &w) in kernel.taps.iter().enumerate() {
+                for (o, &p) in out.iter_mut().zip(&rows[(j + t) * inner..]) {
+                    *o += w * p;
+                }
             }
         }
         let mut magnitude = vec![0.0; side * side];
@@ -75,7 +73,7 @@ impl Patch {
                 let gx = 0.5 * (s(2, 1) - s(0, 1));
                 let gy = 0.5 * (s(1, 2) - s(1, 0));
                 magnitude[j * side + i] = (gx * gx + gy * gy).sqrt();
-                direction[j * side + i] = gy.atan2(gx);
+                direction[j * side + i] = fast_atan2(gy, gx);
             }
         }
         Self {
@@ -87,19 +85,25 @@ impl Patch {
         }
     }
 
-    /// Every pixel of the patch as (dx, dy, |∇I|, direction of ∇I), offsets from the
-    /// sub-pixel centre (x, y).
-    fn pixels(&self, x: f32, y: f32) -> impl Iterator<Item = (f32, f32, f32, f32)> + '_ {
-        (0..self.side * self.side).map(move |k| {
-            let (i, j) = (k % self.side, k / self.side);
-            (
-                (self.x0 + i as i64) as f32 - x,
-                (self.y0 + j as i64) as f32 - y,
-                self.magnitude[k],
-                self.direction[k],
-            )
-        })
+    /// Offsets from the sub-pixel centre c of the patch's columns (or rows) starting at `o`.
+    fn offsets(&self, o: i64, c: f32) -> Vec<f32> {
+        (0..self.side).map(|i| (o + i as i64) as f32 - c).collect()
     }
+}
+
+/// exp(−d²/(2σ²)) for each offset: the Gaussian window is separable, so a patch needs 2·side
+/// exponentials instead of side². The GPU twin multiplies the same two factors.
+fn gaussian_factors(offsets: &[f32], sigma: f32) -> Vec<f32> {
+    offsets
+        .iter()
+        .map(|d| (-(d * d) / (2.0 * sigma * sigma)).exp())
+        .collect()
+}
+
+/// floor(v) for v > −1, without the library call the baseline x86-64 target makes of it.
+#[inline]
+fn floor_above_minus_one(v: f32) -> f32 {
+    ((v + 1.0) as i32 - 1) as f32
 }
 
 /// The steered descriptor of a keypoint at (x, y) with differentiation scale `sigma` (σ_D,
@@ -121,20 +125,51 @@ pub fn describe_steered(
     let mut hist = vec![0.0f32; STEERED_LEN];
     let weight_sigma = 0.5 * window;
     let to_bin = DIRECTIONS as f32 / TAU;
-    for (dx, dy, magnitude, direction) in patch.pixels(x, y) {
-        // The pixel in the keypoint's frame, in cells, with cell centres at integers.
-        let u = (cos * dx + sin * dy) / cell + 0.5 * CELLS as f32 - 0.5;
-        let v = (-sin * dx + cos * dy) / cell + 0.5 * CELLS as f32 - 0.5;
-        if u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32 {
-            continue;
+    let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
+    let (gx, gy) = (
+        gaussian_factors(&dxs, weight_sigma),
+        gaussian_factors(&dys, weight_sigma),
+    );
+    for (j, &dy) in dys.iter().enumerate() {
+        for (i, &dx) in dxs.iter().enumerate() {
+            let k = j * patch.side + i;
+            let magnitude = patch.magnitude[k];
+            // The pixel in the keypoint's frame, in cells, with cell centres at integers.
+            let u = (cos * dx + sin * dy) / cell + 0.5 * CELLS as f32 - 0.5;
+            let v = (-sin * dx + cos * dy) / cell + 0.5 * CELLS as f32 - 0.5;
+            if u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32 {
+                continue;
+            }
+            if magnitude == 0.0 {
+                continue;
+            }
+            let w = magnitude * (gx[i] * gy[j]);
+            // Direction of steepest steered response relative to the frame.
+            let phi = wrap_angle(patch.direction[k] - orientation) * to_bin;
+            vote(&mut hist, (u, v, phi), w);
         }
-        if magnitude == 0.0 {
-            continue;
-        }
-        let w = magnitude * (-(dx * dx + dy * dy) / (2.0 * weight_sigma * weight_sigma)).exp();
-        // Direction of steepest steered response relative to the frame.
-        let phi = wrap_angle(direction - orientation) * to_bin;
-        let (u0, v0, p0) = (u.floor(), v.floor(), phi.floor());
+    }
+    normalise(&mut hist);
+    for v in &mut hist {
+        *v = v.min(CLIP);
+    }
+    normalise(&mut hist);
+    Steered {
+        orientation,
+        values: hist,
+    }
+}
+
+/// Adds a pixel's weight `w` to the 2×2×2 bins around (u, v, φ) (cells, cells, direction
+/// bins) with trilinear weights.
+#[inline]
+fn vote(hist: &mut [f32], (u, v, phi): (f32, f32, f32), w: f32) {
+    {
+        let (u0, v0, p0) = (
+            floor_above_minus_one(u),
+            floor_above_minus_one(v),
+            phi as i32 as f32,
+        );
         let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
         for (cu, wu) in [(u0, 1.0 - fu), (u0 + 1.0, fu)] {
             if cu < 0.0 || cu >= CELLS as f32 {
@@ -151,15 +186,6 @@ pub fn describe_steered(
                 }
             }
         }
-    }
-    normalise(&mut hist);
-    for v in &mut hist {
-        *v = v.min(CLIP);
-    }
-    normalise(&mut hist);
-    Steered {
-        orientation,
-        values: hist,
     }
 }
 
@@ -178,19 +204,23 @@ fn dominant_orientation(patch: &Patch, x: f32, y: f32, sigma: f32) -> f32 {
     let mut hist = [0.0f32; ORIENTATION_BINS];
     let to_bin = ORIENTATION_BINS as f32 / TAU;
     let limit = (3.0 * sigma).powi(2);
-    for (dx, dy, magnitude, direction) in patch.pixels(x, y) {
-        let d2 = dx * dx + dy * dy;
-        if d2 > limit {
-            continue;
+    let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
+    let (gx, gy) = (gaussian_factors(&dxs, sigma), gaussian_factors(&dys, sigma));
+    for (j, &dy) in dys.iter().enumerate() {
+        for (i, &dx) in dxs.iter().enumerate() {
+            if dx * dx + dy * dy > limit {
+                continue;
+            }
+            let k = j * patch.side + i;
+            let w = patch.magnitude[k] * (gx[i] * gy[j]);
+            // Linear vote between the two nearest bins keeps θ* continuous under rotation.
+            let b = wrap_angle(patch.direction[k]) * to_bin - 0.5;
+            let b0 = floor_above_minus_one(b);
+            let f = b - b0;
+            let i0 = (b0 as i64).rem_euclid(ORIENTATION_BINS as i64) as usize;
+            hist[i0] += w * (1.0 - f);
+            hist[(i0 + 1) % ORIENTATION_BINS] += w * f;
         }
-        let w = magnitude * (-d2 / (2.0 * sigma * sigma)).exp();
-        // Linear vote between the two nearest bins keeps θ* continuous under rotation.
-        let b = wrap_angle(direction) * to_bin - 0.5;
-        let b0 = b.floor();
-        let f = b - b0;
-        let i0 = (b0 as i64).rem_euclid(ORIENTATION_BINS as i64) as usize;
-        hist[i0] += w * (1.0 - f);
-        hist[(i0 + 1) % ORIENTATION_BINS] += w * f;
     }
     for _ in 0..2 {
         let h = hist;
