@@ -1,7 +1,7 @@
 //! One source of truth for the memory shared with the shaders: each uniform or storage struct
-//! is declared once in Rust with [`gpu_struct!`], which derives `bytemuck::Pod` and records
+//! is declared once in Rust with `gpu_struct!`, which derives `bytemuck::Pod` and records
 //! every field's name, offset and scalar type. A unit test beside each driver checks that
-//! record against the WGSL declaration of the same name, parsed by naga ([`check`]), so a
+//! record against the WGSL declaration of the same name, parsed by naga (`check`), so a
 //! field added, reordered or retyped on one side only fails a test instead of reading garbage.
 
 /// A WGSL scalar type, as a Rust field of a shared struct may have.

@@ -3,7 +3,7 @@
 //!
 //! Per frame: one upload of the luminance plane and of the keypoint jobs, the dispatches, and
 //! one readback of every descriptor with its orientation. Each keypoint smooths its own patch
-//! in a scratch area; keypoints go in chunks whose scratch fits [`SCRATCH_BUDGET_BYTES`], so
+//! in a scratch area; keypoints go in chunks whose scratch fits `SCRATCH_BUDGET_BYTES` (64 MiB), so
 //! memory stays bounded whatever the scales. A keypoint whose patch is too large for one
 //! invocation's loops (σ_D above about 9 px) is described on the CPU.
 
