@@ -518,12 +518,11 @@ pub fn slam_synth(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
     seq.write_tum_layout(&cmd.out, |_| bar.inc(1))?;
     bar.finish_and_clear();
     println!(
-        "{}: {} frames, {:.2} m path; run `steernav slam {} --calib {}`",
+        "{}: {} frames, {:.2} m path; run `steernav slam {}`",
         cmd.out.display(),
         seq.poses.len(),
         seq.path_length(),
         cmd.out.display(),
-        cmd.out.join("calib.toml").display()
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -27,7 +27,8 @@ pub struct Sequence {
     pub missing: Vec<PathBuf>,
     /// A ground-truth trajectory found beside the frames (TUM format, or KITTI poses.txt).
     pub ground_truth: Option<PathBuf>,
-    /// A calibration found beside the frames (EuRoC sensor.yaml, KITTI calib.txt).
+    /// A calibration found beside the frames (EuRoC sensor.yaml, KITTI calib.txt, calib.toml
+    /// beside a TUM rgb.txt).
     pub calibration: Option<PathBuf>,
 }
 
@@ -60,7 +61,8 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
             frames,
             missing: Vec::new(),
             ground_truth,
-            calibration: None,
+            // `slam-synth` writes its calibration here.
+            calibration: Some(dir.join("calib.toml")).filter(|p| p.is_file()),
         }
     } else if let Some(cam) = ["cam0", "mav0/cam0", "."]
         .iter()
@@ -292,6 +294,11 @@ mod tests {
         assert_eq!(seq.layout, "tum");
         assert_eq!(seq.frames.len(), 1);
         assert_eq!(seq.missing.len(), 1);
+        assert_eq!(seq.calibration, None);
+        // slam-synth's calib.toml beside rgb.txt is found.
+        std::fs::write(dir.path().join("calib.toml"), "").unwrap();
+        let seq = open(dir.path(), None).unwrap();
+        assert_eq!(seq.calibration, Some(dir.path().join("calib.toml")));
         std::fs::write(dir.path().join("rgb.txt"), "1.0 rgb/a.png\n0.9 rgb/a.png\n").unwrap();
         let message = open(dir.path(), None).unwrap_err().to_string();
         assert!(
