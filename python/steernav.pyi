@@ -120,5 +120,21 @@ def recall(
 ) -> float:
     """Recall (eq 12) of nearest-neighbour matching with Lowe's ratio test."""
 
+def match_keypoints(
+    kp1: npt.NDArray[np.float32],
+    desc1: npt.NDArray[np.float32],
+    kp2: npt.NDArray[np.float32],
+    desc2: npt.NDArray[np.float32],
+    ratio: float = 0.8,
+    verify: str = "homography",
+    threshold: float = 3.0,
+    iterations: int = 10000,
+    seed: int = 1,
+) -> Dict[str, Any]:
+    """Correspondences as `steernav match` makes them: mutual nearest neighbours passing the
+    ratio test both ways, verified by RANSAC ("homography", "fundamental" or "none",
+    `threshold` in pixels). Returns {"i", "j", "distance", "inlier"} arrays and "model", the
+    fitted 3x3 matrix or None."""
+
 def textured_scene(width: int, height: int, seed: int = 1) -> npt.NDArray[np.uint8]:
     """The seeded procedural scene of the benchmarks and tests, (H, W, 3) RGB."""

@@ -670,6 +670,110 @@ fn recall(
     .recall)
 }
 
+/// Correspondences between two keypoint sets, as `steernav match` makes them: mutual nearest
+/// neighbours of the descriptors passing the ratio test both ways, verified by RANSAC
+/// (`verify` = "homography", "fundamental" or "none"; `threshold` in pixels). Returns a dict
+/// with arrays `i`, `j` (indices into each set), `distance`, `inlier` (bool), and `model`, the
+/// fitted 3×3 H or F (None when none was found).
+#[pyfunction]
+#[pyo3(signature = (kp1, desc1, kp2, desc2, ratio = 0.8, verify = "homography", threshold = 3.0, iterations = 10_000, seed = 1))]
+#[allow(clippy::too_many_arguments)]
+fn match_keypoints<'py>(
+    py: Python<'py>,
+    kp1: PyReadonlyArray2<'_, f32>,
+    desc1: PyReadonlyArray2<'_, f32>,
+    kp2: PyReadonlyArray2<'_, f32>,
+    desc2: PyReadonlyArray2<'_, f32>,
+    ratio: f32,
+    verify: &str,
+    threshold: f64,
+    iterations: usize,
+    seed: u64,
+) -> PyResult<Bound<'py, PyDict>> {
+    use steernav_core::features::matching::{mutual_matches, verify as check, Verification};
+    let model: Verification = verify
+        .parse()
+        .map_err(|e: steernav_core::error::Error| PyValueError::new_err(format!("verify: {e}")))?;
+    if !(ratio > 0.0 && ratio <= 1.0) {
+        return Err(PyValueError::new_err(format!(
+            "ratio {ratio}: must be in (0, 1]"
+        )));
+    }
+    if !(threshold.is_finite() && threshold > 0.0 && (1..=1_000_000).contains(&iterations)) {
+        return Err(PyValueError::new_err(format!(
+            "threshold {threshold} must be > 0 pixels and iterations {iterations} in 1..=1000000"
+        )));
+    }
+    let set = |kp: &PyReadonlyArray2<'_, f32>, desc: &PyReadonlyArray2<'_, f32>, what: &str| {
+        let points = points(kp, what)?;
+        let desc = desc.as_array();
+        if desc.nrows() != points.len() {
+            return Err(PyValueError::new_err(format!(
+                "{what}: {} points but {} descriptors",
+                points.len(),
+                desc.nrows()
+            )));
+        }
+        Ok(points
+            .iter()
+            .zip(desc.rows())
+            .map(|(&(x, y), d)| steernav_core::Keypoint {
+                x: x as f32,
+                y: y as f32,
+                scale: 0.0,
+                angle: 0.0,
+                response: 0.0,
+                descriptor: d.to_vec(),
+            })
+            .collect::<Vec<_>>())
+    };
+    let (a, b) = (set(&kp1, &desc1, "kp1")?, set(&kp2, &desc2, "kp2")?);
+    if a.first()
+        .zip(b.first())
+        .is_some_and(|(p, q)| p.descriptor.len() != q.descriptor.len())
+    {
+        return Err(PyValueError::new_err(
+            "desc1 and desc2 have different lengths: describe both images the same way",
+        ));
+    }
+    let (matches, verified) = py.detach(|| {
+        let matches = mutual_matches(&a, &b, ratio);
+        let pairs: Vec<_> = matches
+            .iter()
+            .map(|m| {
+                let (p, q) = (&a[m.i], &b[m.j]);
+                ((p.x as f64, p.y as f64), (q.x as f64, q.y as f64))
+            })
+            .collect();
+        let verified = check(&pairs, model, threshold, iterations, seed);
+        (matches, verified)
+    });
+    let out = PyDict::new(py);
+    let column = |f: fn(&steernav_core::features::matching::Match) -> usize| {
+        Array1::from_iter(matches.iter().map(f)).into_pyarray(py)
+    };
+    out.set_item("i", column(|m| m.i))?;
+    out.set_item("j", column(|m| m.j))?;
+    out.set_item(
+        "distance",
+        Array1::from_iter(matches.iter().map(|m| m.distance)).into_pyarray(py),
+    )?;
+    out.set_item(
+        "inlier",
+        Array1::from_vec(verified.inliers.clone()).into_pyarray(py),
+    )?;
+    match verified.model {
+        Some(m) => out.set_item(
+            "model",
+            Array2::from_shape_vec((3, 3), m.to_vec())
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?
+                .into_pyarray(py),
+        )?,
+        None => out.set_item("model", py.None())?,
+    }
+    Ok(out)
+}
+
 /// `textured_scene(width, height, seed=1)`: the seeded procedural scene the benchmarks and
 /// tests use, as an (H, W, 3) uint8 array.
 #[pyfunction]
@@ -703,6 +807,7 @@ fn steernav(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(gist, m)?)?;
     m.add_function(wrap_pyfunction!(repeatability, m)?)?;
     m.add_function(wrap_pyfunction!(recall, m)?)?;
+    m.add_function(wrap_pyfunction!(match_keypoints, m)?)?;
     m.add_function(wrap_pyfunction!(textured_scene, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

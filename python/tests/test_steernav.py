@@ -141,3 +141,20 @@ def test_slam_reports_poses_and_a_trajectory(sample):
         steernav.Slam(500.0, 500.0, 320, 240, 640, 480, max_landmarkz=3)
     with pytest.raises(ValueError):
         slam.process(sample[:100], 1.0)
+
+
+def test_match_keypoints_on_a_quarter_turn(sample):
+    det = steernav.Detector(backend="cpu")
+    turned = np.ascontiguousarray(np.rot90(sample))  # (x, y) -> (y, W - 1 - x)
+    a, b = det.detect(sample), det.detect(turned)
+    m = steernav.match_keypoints(a.xy, a.descriptor, b.xy, b.descriptor)
+    assert len(m["i"]) >= 100
+    w = sample.shape[1]
+    p, q = a.xy[m["i"]], b.xy[m["j"]]
+    expected = np.stack([p[:, 1], w - 1 - p[:, 0]], axis=1)
+    correct = np.linalg.norm(q - expected, axis=1) <= 2.0
+    assert correct.mean() >= 0.9
+    assert m["inlier"][correct].mean() >= 0.95
+    assert m["model"].shape == (3, 3)
+    with pytest.raises(ValueError, match="verify"):
+        steernav.match_keypoints(a.xy, a.descriptor, b.xy, b.descriptor, verify="affine")
