@@ -618,6 +618,30 @@ fn repeatability(
     .ratio)
 }
 
+/// Points (K, 2) and their descriptors (K, D) as rows, checked to pair up.
+type Described = (Vec<(f64, f64)>, Vec<Vec<f32>>);
+fn described(
+    kp: &PyReadonlyArray2<'_, f32>,
+    desc: &PyReadonlyArray2<'_, f32>,
+    what: &str,
+) -> PyResult<Described> {
+    let points = points(kp, what)?;
+    let rows: Vec<Vec<f32>> = desc
+        .as_array()
+        .rows()
+        .into_iter()
+        .map(|r| r.to_vec())
+        .collect();
+    if rows.len() != points.len() {
+        return Err(PyValueError::new_err(format!(
+            "{what}: {} points but {} descriptors",
+            points.len(),
+            rows.len()
+        )));
+    }
+    Ok((points, rows))
+}
+
 /// Recall (eq 12) of nearest-neighbour descriptor matching with Lowe's ratio test.
 /// Descriptors are float arrays (K, D), compared by Euclidean distance.
 #[pyfunction]
@@ -635,21 +659,11 @@ fn recall(
     ratio: f64,
     margin: f64,
 ) -> PyResult<f64> {
-    let set = |kp: &PyReadonlyArray2<'_, f32>, desc: &PyReadonlyArray2<'_, f32>, what: &str| {
-        let points = points(kp, what)?;
-        let rows: Vec<Vec<f32>> = desc
-            .as_array()
-            .rows()
-            .into_iter()
-            .map(|r| r.to_vec())
-            .collect();
-        if rows.len() != points.len() {
-            return Err(PyValueError::new_err(format!(
-                "{what}: {} points but {} descriptors",
-                points.len(),
-                rows.len()
-            )));
-        }
+    let set = |kp: &PyReadonlyArray2<'_, f32>,
+               desc: &PyReadonlyArray2<'_, f32>,
+               what: &str|
+     -> PyResult<KeypointSet> {
+        let (points, rows) = described(kp, desc, what)?;
         Ok(KeypointSet {
             points,
             descriptors: Descriptors::Float(rows),
@@ -704,26 +718,21 @@ fn match_keypoints<'py>(
             "threshold {threshold} must be > 0 pixels and iterations {iterations} in 1..=1000000"
         )));
     }
-    let set = |kp: &PyReadonlyArray2<'_, f32>, desc: &PyReadonlyArray2<'_, f32>, what: &str| {
-        let points = points(kp, what)?;
-        let desc = desc.as_array();
-        if desc.nrows() != points.len() {
-            return Err(PyValueError::new_err(format!(
-                "{what}: {} points but {} descriptors",
-                points.len(),
-                desc.nrows()
-            )));
-        }
+    let set = |kp: &PyReadonlyArray2<'_, f32>,
+               desc: &PyReadonlyArray2<'_, f32>,
+               what: &str|
+     -> PyResult<Vec<steernav_core::Keypoint>> {
+        let (points, rows) = described(kp, desc, what)?;
         Ok(points
-            .iter()
-            .zip(desc.rows())
-            .map(|(&(x, y), d)| steernav_core::Keypoint {
+            .into_iter()
+            .zip(rows)
+            .map(|((x, y), descriptor)| steernav_core::Keypoint {
                 x: x as f32,
                 y: y as f32,
                 scale: 0.0,
                 angle: 0.0,
                 response: 0.0,
-                descriptor: d.to_vec(),
+                descriptor,
             })
             .collect::<Vec<_>>())
     };

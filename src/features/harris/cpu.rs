@@ -11,14 +11,6 @@ use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::Candidate;
 use crate::simd::{axpy, max_or};
 
-/// Response bands, kept between frames of the same size.
-#[derive(Default)]
-struct Workspace {
-    width: usize,
-    height: usize,
-    bands: Vec<ScaleBand>,
-}
-
 /// Rows `[first_row, first_row + rows)` of one scale's grid, for every orientation (layout
 /// `[θ][row][i]`).
 #[derive(Default)]
@@ -36,7 +28,10 @@ const RESPONSE_BUDGET_BYTES: usize = 256 << 20;
 /// The CPU backend of the Harris stage; reuses its buffers across frames of one size.
 pub struct CpuHarris {
     plan: HarrisPlan,
-    workspace: Mutex<Workspace>,
+    /// One band of responses per scale, reused (and resized) from frame to frame.
+    bands: Mutex<Vec<ScaleBand>>,
+    /// The structure tensor's non-zero weights per orientation, built once.
+    terms: TensorTerms,
     response_budget: usize,
 }
 
@@ -62,8 +57,9 @@ impl CpuHarris {
     /// Prepares the backend for a plan.
     pub fn new(plan: HarrisPlan) -> Self {
         Self {
+            bands: Mutex::new(plan.scales.iter().map(|_| ScaleBand::default()).collect()),
+            terms: tensor_terms(&plan),
             plan,
-            workspace: Mutex::new(Workspace::default()),
             response_budget: RESPONSE_BUDGET_BYTES,
         }
     }
@@ -102,18 +98,13 @@ impl CpuHarris {
     /// Harris responses R(σ_s, θ_n) of every scale and orientation.
     pub fn responses(&self, gray: &[f32], width: usize, height: usize) -> ResponseStack {
         let plan = &self.plan;
-        let terms = tensor_terms(plan);
-        let grids: Vec<(usize, usize)> = plan
-            .scales
-            .iter()
-            .map(|sc| sc.grid(width, height))
-            .collect();
+        let grids = plan.grids(width, height);
         let responses = grids
             .iter()
             .enumerate()
             .map(|(s, &(gw, gh))| {
                 let mut plane = vec![0.0; gw * gh * plan.orientations.len()];
-                scale_responses(plan, &terms, s, gray, width, height, 0..gh, &mut plane);
+                scale_responses(plan, &self.terms, s, gray, width, height, 0..gh, &mut plane);
                 plane
             })
             .collect();
@@ -135,26 +126,9 @@ impl CpuHarris {
         height: usize,
     ) -> (Vec<Candidate>, f32, CpuTimings) {
         let plan = &self.plan;
-        let mut ws = self.workspace.lock().unwrap_or_else(|e| e.into_inner());
-        if ws.width != width || ws.height != height || ws.bands.len() != plan.scales.len() {
-            *ws = Workspace {
-                width,
-                height,
-                bands: plan.scales.iter().map(|_| ScaleBand::default()).collect(),
-            };
-        }
-        let terms = tensor_terms(plan);
-        let grids: Vec<(usize, usize)> = plan
-            .scales
-            .iter()
-            .map(|sc| sc.grid(width, height))
-            .collect();
-        let max_step = plan
-            .scales
-            .iter()
-            .map(|sc| sc.step as usize)
-            .max()
-            .unwrap_or(1);
+        let mut bands = self.bands.lock().unwrap_or_else(|e| e.into_inner());
+        let grids = plan.grids(width, height);
+        let max_step = plan.max_step() as usize;
         // Bytes of responses per image row, over all scales and orientations.
         let row_bytes: usize = grids
             .iter()
@@ -180,7 +154,7 @@ impl CpuHarris {
         for y0 in (0..height).step_by(band_rows) {
             let y1 = (y0 + band_rows).min(height);
             let t0 = std::time::Instant::now();
-            for (s, band) in ws.bands.iter_mut().enumerate() {
+            for (s, band) in bands.iter_mut().enumerate() {
                 let (gw, gh) = grids[s];
                 let g = plan.scales[s].step as usize;
                 let first = y0.saturating_sub(halo) / g;
@@ -191,7 +165,7 @@ impl CpuHarris {
                     .resize(band.rows * gw * plan.orientations.len(), 0.0);
                 let peak = scale_responses(
                     plan,
-                    &terms,
+                    &self.terms,
                     s,
                     gray,
                     width,
@@ -204,7 +178,7 @@ impl CpuHarris {
             let t1 = std::time::Instant::now();
             let floor = config.effective_threshold(strongest);
             found.retain(|c| c.response > floor);
-            found.extend(suppress(plan, &ws.bands, &grids, y0..y1, floor));
+            found.extend(suppress(plan, &bands, &grids, y0..y1, floor));
             if found.len() > capacity {
                 let (_, &mut kth, _) = found
                     .select_nth_unstable_by(capacity, |a, b| b.response.total_cmp(&a.response));

@@ -430,12 +430,9 @@ impl GpuHarris {
         let derivatives = storage(device, "derivatives", plane * 4 * count as u64);
         let prod = storage(device, "products", plane * 4 * products as u64);
         let grids: Vec<(u32, u32)> = plan
-            .scales
-            .iter()
-            .map(|sc| {
-                let (gw, gh) = sc.grid(width as usize, height as usize);
-                (gw as u32, gh as u32)
-            })
+            .grids(width as usize, height as usize)
+            .into_iter()
+            .map(|(gw, gh)| (gw as u32, gh as u32))
             .collect();
         let responses: Vec<_> = grids
             .iter()
@@ -796,7 +793,7 @@ impl GpuHarris {
     /// neighbouring samples the suppression reads (±1 of its scale, ±1.5 steps of the
     /// adjacent ones). A multiple of the coarsest step, so tiles keep every grid aligned.
     pub fn tile_halo(&self) -> u32 {
-        let max_step = self.max_step();
+        let max_step = self.plan.max_step();
         let reach = self
             .plan
             .scales
@@ -815,10 +812,6 @@ impl GpuHarris {
         (reach + 2 * max_step).next_multiple_of(max_step)
     }
 
-    fn max_step(&self) -> u32 {
-        self.plan.scales.iter().map(|s| s.step).max().unwrap_or(1)
-    }
-
     /// The tiles of a `width`×`height` frame: one when it fits the device and no tile size is
     /// configured, otherwise cores of `gpu_tile_size` (or the largest that fit) with halos.
     fn tiles(&self, width: u32, height: u32) -> Result<Vec<Tile>> {
@@ -829,7 +822,7 @@ impl GpuHarris {
         };
         let configured = self.plan.config.gpu_tile_size;
         let halo = self.tile_halo();
-        let max_step = self.max_step();
+        let max_step = self.plan.max_step();
         let side = if configured > 0 {
             configured
         } else if self.check_fits(width, height).is_ok() {
@@ -888,8 +881,13 @@ impl GpuHarris {
         height: u32,
     ) -> Result<(Vec<Candidate>, f32, Option<GpuTimings>)> {
         let tiles = self.tiles(width, height)?;
-        if let [tile] = tiles[..] {
-            let run = self.run_tile(gray, &tile)?;
+        self.run_tiles(gray, width, &tiles)
+    }
+
+    /// The whole stage over `tiles` of a frame `width` pixels wide (one tile: the frame).
+    fn run_tiles(&self, gray: &[f32], width: u32, tiles: &[Tile]) -> Result<HarrisResult> {
+        if let [tile] = tiles {
+            let run = self.run_tile(gray, tile)?;
             let mut list = run.candidates;
             sort_candidates(&mut list);
             return Ok((list, run.threshold, run.timings));
@@ -899,7 +897,7 @@ impl GpuHarris {
         let mut found = Vec::new();
         let (mut strongest, mut overflowed_at) = (0.0f32, f32::NEG_INFINITY);
         let mut timings: Option<GpuTimings> = None;
-        for tile in &tiles {
+        for tile in tiles {
             let (tw, th) = (tile.size.0 as usize, tile.size.1 as usize);
             pixels.clear();
             for y in 0..th {
@@ -1047,7 +1045,7 @@ impl GpuHarris {
                     }),
             )
         } else {
-            let done = self.candidates(gray, width, height);
+            let done = self.run_tiles(gray, width, &tiles);
             release(done.map(|result| PendingFrame {
                 slot,
                 tile: tiles[0],
@@ -1131,12 +1129,7 @@ impl GpuHarris {
             .collect::<Result<Vec<_>>>()?;
         Ok(ResponseStack {
             responses,
-            grids: self
-                .plan
-                .scales
-                .iter()
-                .map(|sc| sc.grid(width as usize, height as usize))
-                .collect(),
+            grids: self.plan.grids(width as usize, height as usize),
         })
     }
 }

@@ -139,6 +139,20 @@ impl HarrisPlan {
         }
     }
 
+    /// The response grid (columns, rows) of every scale for a `width`×`height` image.
+    pub fn grids(&self, width: usize, height: usize) -> Vec<(usize, usize)> {
+        self.scales
+            .iter()
+            .map(|sc| sc.grid(width, height))
+            .collect()
+    }
+
+    /// The coarsest grid step: bands and tiles start on multiples of it, so every grid stays
+    /// aligned.
+    pub fn max_step(&self) -> u32 {
+        self.scales.iter().map(|s| s.step).max().unwrap_or(1)
+    }
+
     /// Number of derivative images per scale (n + 2).
     pub fn derivative_count(&self) -> usize {
         self.config.basis.order() + 2

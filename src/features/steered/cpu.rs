@@ -4,8 +4,8 @@
 use std::f32::consts::TAU;
 
 use super::{
-    fast_atan2, nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS, CLIP,
-    DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
+    fast_atan2, floor, nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS,
+    CLIP, DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
 };
 use crate::features::steerable::Kernel1d;
 
@@ -100,12 +100,6 @@ fn gaussian_factors(offsets: &[f32], sigma: f32) -> Vec<f32> {
         .collect()
 }
 
-/// floor(v) for v > −1, without the library call the baseline x86-64 target makes of it.
-#[inline]
-fn floor_above_minus_one(v: f32) -> f32 {
-    ((v + 1.0) as i32 - 1) as f32
-}
-
 /// The steered descriptor of a keypoint at (x, y) with differentiation scale `sigma` (σ_D,
 /// pixels) on a luminance plane.
 pub fn describe_steered(
@@ -120,12 +114,12 @@ pub fn describe_steered(
     let window = CELLS as f32 * cell;
     let (half, kernel) = patch_geometry(sigma);
     let patch = Patch::around(gray, width, height, (x, y), half, &kernel);
-    let orientation = dominant_orientation(&patch, x, y, ORIENTATION_SIGMAS * sigma);
+    let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
+    let orientation = dominant_orientation(&patch, (&dxs, &dys), ORIENTATION_SIGMAS * sigma);
     let (sin, cos) = orientation.sin_cos();
     let mut hist = vec![0.0f32; STEERED_LEN];
     let weight_sigma = 0.5 * window;
     let to_bin = DIRECTIONS as f32 / TAU;
-    let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
     let (gx, gy) = (
         gaussian_factors(&dxs, weight_sigma),
         gaussian_factors(&dys, weight_sigma),
@@ -164,26 +158,20 @@ pub fn describe_steered(
 /// bins) with trilinear weights.
 #[inline]
 fn vote(hist: &mut [f32], (u, v, phi): (f32, f32, f32), w: f32) {
-    {
-        let (u0, v0, p0) = (
-            floor_above_minus_one(u),
-            floor_above_minus_one(v),
-            phi as i32 as f32,
-        );
-        let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
-        for (cu, wu) in [(u0, 1.0 - fu), (u0 + 1.0, fu)] {
-            if cu < 0.0 || cu >= CELLS as f32 {
+    let (u0, v0, p0) = (floor(u), floor(v), phi as i32 as f32);
+    let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
+    for (cu, wu) in [(u0, 1.0 - fu), (u0 + 1.0, fu)] {
+        if cu < 0.0 || cu >= CELLS as f32 {
+            continue;
+        }
+        for (cv, wv) in [(v0, 1.0 - fv), (v0 + 1.0, fv)] {
+            if cv < 0.0 || cv >= CELLS as f32 {
                 continue;
             }
-            for (cv, wv) in [(v0, 1.0 - fv), (v0 + 1.0, fv)] {
-                if cv < 0.0 || cv >= CELLS as f32 {
-                    continue;
-                }
-                for (cp, wp) in [(p0, 1.0 - fp), (p0 + 1.0, fp)] {
-                    let d = (cp as usize) % DIRECTIONS;
-                    let slot = ((cv as usize) * CELLS + cu as usize) * DIRECTIONS + d;
-                    hist[slot] += w * wu * wv * wp;
-                }
+            for (cp, wp) in [(p0, 1.0 - fp), (p0 + 1.0, fp)] {
+                let d = (cp as usize) % DIRECTIONS;
+                let slot = ((cv as usize) * CELLS + cu as usize) * DIRECTIONS + d;
+                hist[slot] += w * wu * wv * wp;
             }
         }
     }
@@ -199,13 +187,13 @@ fn normalise(v: &mut [f32]) {
 }
 
 /// θ* in [0, 2π): the peak of the magnitude-weighted histogram of gradient directions within
-/// a Gaussian window of σ `sigma`, smoothed twice with [1, 2, 1]/4 and refined by a parabola.
-fn dominant_orientation(patch: &Patch, x: f32, y: f32, sigma: f32) -> f32 {
+/// a Gaussian window of σ `sigma`, smoothed twice with [1, 2, 1]/4 and refined by a
+/// parabola. `dxs`, `dys`: the offsets of the patch's columns and rows from the keypoint.
+fn dominant_orientation(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32) -> f32 {
     let mut hist = [0.0f32; ORIENTATION_BINS];
     let to_bin = ORIENTATION_BINS as f32 / TAU;
     let limit = (3.0 * sigma).powi(2);
-    let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
-    let (gx, gy) = (gaussian_factors(&dxs, sigma), gaussian_factors(&dys, sigma));
+    let (gx, gy) = (gaussian_factors(dxs, sigma), gaussian_factors(dys, sigma));
     for (j, &dy) in dys.iter().enumerate() {
         for (i, &dx) in dxs.iter().enumerate() {
             if dx * dx + dy * dy > limit {
@@ -215,7 +203,7 @@ fn dominant_orientation(patch: &Patch, x: f32, y: f32, sigma: f32) -> f32 {
             let w = patch.magnitude[k] * (gx[i] * gy[j]);
             // Linear vote between the two nearest bins keeps θ* continuous under rotation.
             let b = wrap_angle(patch.direction[k]) * to_bin - 0.5;
-            let b0 = floor_above_minus_one(b);
+            let b0 = floor(b);
             let f = b - b0;
             let i0 = (b0 as i64).rem_euclid(ORIENTATION_BINS as i64) as usize;
             hist[i0] += w * (1.0 - f);

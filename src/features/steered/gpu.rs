@@ -74,6 +74,9 @@ struct Resources {
     out: wgpu::Buffer,
     readback: wgpu::Buffer,
     params: wgpu::Buffer,
+    /// Every chunk's parameters, copied into `params` before its dispatch (at most one chunk
+    /// per keypoint).
+    chunk_params: wgpu::Buffer,
     group: wgpu::BindGroup,
 }
 
@@ -213,35 +216,28 @@ impl GpuSteered {
         chunks.push((start, planned.len()));
         let jobs: Vec<Job> = planned.iter().map(|p| p.job).collect();
         queue.write_buffer(&res.jobs, 0, bytemuck::cast_slice(&jobs));
-        let mut param_list = Vec::new();
-        for &(a, b) in &chunks {
-            let count = (b - a) as u32;
-            let groups_x = count.clamp(1, 65_535);
-            param_list.push(Params {
-                width,
-                height,
-                count,
-                groups_x,
-                slots: slots as u32,
-                first: a as u32,
-                _pad0: 0,
-                _pad1: 0,
-            });
-        }
-        let params_src = wgpu::util::DeviceExt::create_buffer_init(
-            device,
-            &wgpu::util::BufferInitDescriptor {
-                label: Some("steered params per chunk"),
-                contents: bytemuck::cast_slice(&param_list),
-                usage: wgpu::BufferUsages::COPY_SRC,
-            },
-        );
+        let param_list: Vec<Params> = chunks
+            .iter()
+            .map(|&(a, b)| {
+                let count = (b - a) as u32;
+                Params {
+                    width,
+                    height,
+                    count,
+                    groups_x: count.clamp(1, 65_535),
+                    slots: slots as u32,
+                    first: a as u32,
+                    _pad0: 0,
+                    _pad1: 0,
+                }
+            })
+            .collect();
+        // Each chunk's parameters are copied into place by the encoder between dispatches.
+        queue.write_buffer(&res.chunk_params, 0, bytemuck::cast_slice(&param_list));
         let mut enc = device.create_command_encoder(&Default::default());
-        for (i, &(a, b)) in chunks.iter().enumerate() {
-            let count = (b - a) as u32;
-            let groups_x = count.clamp(1, 65_535);
+        for (i, p) in param_list.iter().enumerate() {
             enc.copy_buffer_to_buffer(
-                &params_src,
+                &res.chunk_params,
                 (i * std::mem::size_of::<Params>()) as u64,
                 &res.params,
                 0,
@@ -253,7 +249,7 @@ impl GpuSteered {
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &res.group, &[]);
-            pass.dispatch_workgroups(groups_x, count.div_ceil(groups_x), 1);
+            pass.dispatch_workgroups(p.groups_x, p.count.div_ceil(p.groups_x), 1);
         }
         let bytes = (slots * (STEERED_LEN + 1) * 4) as u64;
         enc.copy_buffer_to_buffer(&res.out, 0, &res.readback, 0, Some(bytes));
@@ -297,6 +293,12 @@ impl GpuSteered {
                 _pad1: 0,
             },
         );
+        let chunk_params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("steered params per chunk"),
+            size: (capacity * std::mem::size_of::<Params>()) as u64,
+            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let group = bind(
             device,
             pipeline,
@@ -313,6 +315,7 @@ impl GpuSteered {
             out,
             readback,
             params,
+            chunk_params,
             group,
         }
     }
