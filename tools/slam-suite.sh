@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# Runs `steernav slam` on many sequences and prints frames lost and ATE (% of the path) for
+# each, then a summary. A SLAM change is judged on this table, not on one clip: on short
+# clips the outcome hangs on a few early decisions.
+#
+#   bash tools/slam-suite.sh [KITTI_CLIPS_DIR] [-- extra slam flags, e.g. --config F]
+#
+# Sequences:
+# - generated: the room (30 Hz) for seeds 1 2 3 7 11, the drive (10 Hz) for seeds 1 2 3 7 11,
+#   and the drive at 5 Hz for seeds 7 and 3;
+# - real, when KITTI_CLIPS_DIR is given (a folder of KITTI odometry clips): each clip as is,
+#   from its 16th frame, at 5 Hz (even and odd frames), and played backwards.
+# Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+clips=""
+if [ $# -gt 0 ] && [ "$1" != "--" ]; then clips=$(realpath "$1"); shift; fi
+[ "${1:-}" = "--" ] && shift
+SUITE_DIR=${SUITE_DIR:-/tmp/steernav-suite}
+mkdir -p "$SUITE_DIR"
+cargo build --release --quiet
+bin=./target/release/steernav
+
+synth() { # name motion seed fps
+  local dir="$SUITE_DIR/$1"
+  [ -f "$dir/rgb.txt" ] && return 0
+  local cfg="$SUITE_DIR/$1.toml"
+  printf '[synthetic]\nseed = %s\n' "$3" >"$cfg"
+  [ -n "$4" ] && printf 'fps = %s\n' "$4" >>"$cfg"
+  local frames=()
+  [ "$2" = drive ] && [ -n "$4" ] && frames=(--frames 30)
+  "$bin" slam-synth "$dir" --motion "$2" --config "$cfg" "${frames[@]}" >/dev/null
+}
+
+# A KITTI clip made of the frames of $src listed (0-based) on stdin, in that order.
+derive() { # name src
+  local dir="$SUITE_DIR/$1" src=$2
+  [ -f "$dir/poses.txt" ] && return 0
+  rm -rf "$dir" && mkdir -p "$dir/image_l"
+  cp "$src/calib.txt" "$dir/"
+  local frames=() i=0 f
+  mapfile -t frames < <(find "$src/image_l" -maxdepth 1 -name '*.png' | sort)
+  : >"$dir/poses.txt"
+  while read -r f; do
+    ln -s "${frames[$f]}" "$dir/image_l/$(printf '%06d' "$i").png"
+    awk -v n="$((f + 1))" 'NR == n' "$src/poses.txt" >>"$dir/poses.txt"
+    i=$((i + 1))
+  done
+}
+
+sequences=()
+for seed in 1 2 3 7 11; do synth "room-$seed" room "$seed" "" && sequences+=("room-$seed|"); done
+for seed in 1 2 3 7 11; do synth "drive-$seed" drive "$seed" "" && sequences+=("drive-$seed|"); done
+for seed in 7 3; do synth "drive5hz-$seed" drive "$seed" 5 && sequences+=("drive5hz-$seed|"); done
+if [ -n "$clips" ]; then
+  for src in "$clips"/*/; do
+    src=${src%/}
+    name=$(basename "$src")
+    n=$(find "$src/image_l" -maxdepth 1 -name '*.png' | wc -l)
+    seq 0 $((n - 1)) | derive "$name" "$src" && sequences+=("$name|--fps 10")
+    seq 15 $((n - 1)) | derive "$name-from15" "$src" && sequences+=("$name-from15|--fps 10")
+    seq 0 2 $((n - 1)) | derive "$name-5hz-even" "$src" && sequences+=("$name-5hz-even|--fps 5")
+    seq 1 2 $((n - 1)) | derive "$name-5hz-odd" "$src" && sequences+=("$name-5hz-odd|--fps 5")
+    seq $((n - 1)) -1 0 | derive "$name-reversed" "$src" && sequences+=("$name-reversed|--fps 10")
+  done
+fi
+
+printf '%-22s %6s %8s %8s\n' sequence lost frames ATE%
+total_lost=0 over=0 worst=0 count=0
+for entry in "${sequences[@]}"; do
+  name=${entry%%|*}
+  read -r -a flags <<<"${entry#*|}"
+  log="$SUITE_DIR/$name.log"
+  if ! "$bin" slam "$SUITE_DIR/$name" --backend cpu --out "$SUITE_DIR/$name.out" \
+    "${flags[@]}" "$@" >"$log" 2>&1; then
+    printf '%-22s failed, see %s\n' "$name" "$log"
+    over=$((over + 1))
+    continue
+  fi
+  lost=$(sed -n 's/.*tracking lost on \([0-9]*\) frames.*/\1/p' "$log")
+  frames=$(sed -n 's/.*: \([0-9]*\) frames (.*/\1/p' "$log" | head -1)
+  ate=$(sed -n 's/.*RMSE (\([0-9.]*\)% of the.*/\1/p' "$log")
+  printf '%-22s %6s %8s %8s\n' "$name" "$lost" "$frames" "$ate"
+  total_lost=$((total_lost + lost))
+  count=$((count + 1))
+  if awk -v a="$ate" 'BEGIN { exit !(a > 2.0) }'; then over=$((over + 1)); fi
+  worst=$(awk -v a="$ate" -v w="$worst" 'BEGIN { print (a > w ? a : w) }')
+done
+printf 'summary: %d sequences, %d frames lost, %d above 2%% (or failed), worst ATE %s%%\n' \
+  "$count" "$total_lost" "$over" "$worst"
