@@ -35,7 +35,7 @@ synth() { # name motion seed fps
 # A KITTI clip made of the frames of $src listed (0-based) on stdin, in that order.
 derive() { # name src
   local dir="$SUITE_DIR/$1" src=$2
-  [ -f "$dir/poses.txt" ] && return 0
+  if [ -f "$dir/poses.txt" ]; then cat >/dev/null; return 0; fi
   rm -rf "$dir" && mkdir -p "$dir/image_l"
   cp "$src/calib.txt" "$dir/"
   local frames=() i=0 f
@@ -66,7 +66,7 @@ if [ -n "$clips" ]; then
 fi
 
 printf '%-22s %6s %8s %8s\n' sequence lost frames ATE%
-total_lost=0 over=0 worst=0 count=0
+total_lost=0 over=0 worst=0 count=0 sum=0
 for entry in "${sequences[@]}"; do
   name=${entry%%|*}
   read -r -a flags <<<"${entry#*|}"
@@ -84,7 +84,9 @@ for entry in "${sequences[@]}"; do
   total_lost=$((total_lost + lost))
   count=$((count + 1))
   if awk -v a="$ate" 'BEGIN { exit !(a > 2.0) }'; then over=$((over + 1)); fi
+  sum=$(awk -v a="$ate" -v s="$sum" 'BEGIN { print s + a }')
   worst=$(awk -v a="$ate" -v w="$worst" 'BEGIN { print (a > w ? a : w) }')
 done
-printf 'summary: %d sequences, %d frames lost, %d above 2%% (or failed), worst ATE %s%%\n' \
-  "$count" "$total_lost" "$over" "$worst"
+mean=$(awk -v s="$sum" -v n="$count" 'BEGIN { printf "%.2f", n ? s / n : 0 }')
+printf 'summary: %d sequences, %d frames lost, %d above 2%% (or failed), mean ATE %s%%, worst %s%%\n' \
+  "$count" "$total_lost" "$over" "$mean" "$worst"

@@ -273,6 +273,35 @@ pub fn search(
     ))
 }
 
+/// Scores `template` again at each of `scales` times the predicted `warp`, within 1.5 px of
+/// `best` (the position and score of the search at the predicted warp), and returns the best
+/// position and score of all. The position comes from the predicted warp's search, so a scale
+/// can only confirm a peak, not move the match elsewhere.
+pub fn rescore_at_scales(
+    frame: &Frame,
+    template: &Template,
+    warp: Option<Matrix2<f64>>,
+    half: usize,
+    scales: &[f64],
+    best: (Vector2<f64>, f32),
+) -> (Vector2<f64>, f32) {
+    let nominal = warp.unwrap_or_else(Matrix2::identity);
+    let around = SearchRegion {
+        predicted: best.0,
+        covariance: Matrix2::identity(),
+        gate: 2.0 * 1.5 * 1.5,
+        max_extent: 1.5,
+    };
+    scales
+        .iter()
+        .filter_map(|&s| normalised(&template.warped(Some(nominal * s), half)))
+        .filter_map(|t| {
+            let (w, h) = (frame.width as usize, frame.height as usize);
+            search(&frame.gray, w, h, &t, half, &around)
+        })
+        .fold(best, |a, b| if b.1 > a.1 { b } else { a })
+}
+
 /// Largest absolute difference between two entropy descriptors, in bits.
 pub fn descriptor_distance(a: &[f32; 5], b: &[f32; 5]) -> f32 {
     a.iter()

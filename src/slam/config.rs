@@ -34,6 +34,11 @@ pub struct SlamConfig {
     /// forward–backward check already vouches for it; the warped template only guards
     /// against drift, and its warp is least reliable while the depth is uncertain).
     pub min_tracked_correlation: f32,
+    /// Scales, relative to the predicted warp, at which a template that correlates below the
+    /// threshold is scored again around its best position. The warp's scale comes from the
+    /// landmark's depth estimate, which is poor while the landmark is young; under forward
+    /// motion a wrong scale costs a correct match most of its correlation.
+    pub template_scales: Vec<f64>,
     /// A matched landmark's template is cut again from the current frame once the camera
     /// has moved this fraction of the landmark's depth since it was cut.
     pub template_refresh: f64,
@@ -82,13 +87,14 @@ impl Default for SlamConfig {
             max_search_extent: 40.0,
             min_correlation: 0.8,
             min_tracked_correlation: 0.5,
+            template_scales: vec![0.8, 0.9, 1.12, 1.25],
             template_refresh: 0.4,
             descriptor_tolerance: 1.0,
             ransac_threshold: 2.0,
             ransac_confidence: 0.99,
             max_hypotheses: 500,
             rescue_gate: 5.99,
-            target_visible: 24,
+            target_visible: 32,
             max_new_per_frame: 8,
             grid: [8, 6],
             redetect_interval: 10,
@@ -154,6 +160,17 @@ impl SlamConfig {
                 "slam.descriptor_tolerance",
                 self.descriptor_tolerance,
                 "must be finite and > 0",
+            ));
+        }
+        if let Some(&bad) = self
+            .template_scales
+            .iter()
+            .find(|s| !(s.is_finite() && (0.25..=4.0).contains(*s)))
+        {
+            return Err(Error::config(
+                "slam.template_scales",
+                bad,
+                "every scale must be in [0.25, 4]",
             ));
         }
         if self.template_half == 0 || self.template_half > 32 {

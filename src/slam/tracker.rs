@@ -285,15 +285,27 @@ impl Slam {
                     half,
                     &region,
                 );
+                let threshold = if tracked.is_some() {
+                    config.min_tracked_correlation
+                } else {
+                    config.min_correlation
+                };
+                let found = found.map(|best| {
+                    if best.1 >= threshold {
+                        best
+                    } else {
+                        association::rescore_at_scales(
+                            frame,
+                            template,
+                            warp,
+                            half,
+                            &config.template_scales,
+                            best,
+                        )
+                    }
+                });
                 match found {
-                    Some((z, score))
-                        if score
-                            >= if tracked.is_some() {
-                                config.min_tracked_correlation
-                            } else {
-                                config.min_correlation
-                            } =>
-                    {
+                    Some((z, score)) if score >= threshold => {
                         let d =
                             crate::features::descriptor::describe(frame, z.x as f32, z.y as f32);
                         if association::descriptor_distance(&d, &template.descriptor)
@@ -301,11 +313,15 @@ impl Slam {
                         {
                             return Some((slot, None, true, tracked));
                         }
+                        // A tracked landmark is measured where KLT put it: the template
+                        // only confirms the pixel. Its correlation peak sits off the true
+                        // position wherever the warp misjudges the view (oblique surfaces,
+                        // young depths), while the frame-to-frame track is sub-pixel.
                         Some((
                             slot,
                             Some(Observation {
                                 slot,
-                                pixel: z,
+                                pixel: tracked.unwrap_or(z),
                                 prediction,
                             }),
                             false,
