@@ -1,5 +1,5 @@
 //! Monocular EKF SLAM end to end on the generated room sequence: convergence with the
-//! constant-velocity and the odometry motion models, forward driving at 10 Hz, a consistent covariance, tracking lost
+//! constant-velocity and the odometry motion models, forward driving at 10 and 5 Hz, a consistent covariance, tracking lost
 //! on blank frames and recovered against the kept map, the GPU detector feeding the filter, and bad input.
 
 mod common;
@@ -66,9 +66,9 @@ fn constant_velocity_filter_converges_on_the_generated_sequence() {
     assert_covariance_is_consistent(&slam.filter().p);
 }
 
-#[test]
-fn forward_driving_at_10_hz_keeps_tracking() {
-    let seq = SyntheticSequence::new(SyntheticConfig::for_motion(SyntheticMotion::Drive)).unwrap();
+/// Drives the generated car path and returns (frames lost, ATE as a share of the path).
+fn drive(config: SyntheticConfig) -> (usize, f64) {
+    let seq = SyntheticSequence::new(config).unwrap();
     let detector = Detector::new(&DetectorConfig::tracking(), Backend::Cpu).unwrap();
     let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
     let mut estimate = Vec::new();
@@ -83,14 +83,35 @@ fn forward_driving_at_10_hz_keeps_tracking() {
     let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
     let length = seq.path_length();
     eprintln!(
-        "drive: ATE {:.3} m on a {length:.1} m path ({:.2}%)",
+        "drive at {} Hz: {lost} lost, ATE {:.3} m on a {length:.1} m path ({:.2}%)",
+        seq.config.fps,
         error.ate_rmse,
         100.0 * error.ate_rmse / length
     );
     assert!(length > 50.0, "a car-like path: {length} m");
-    assert_eq!(lost, 0, "no frame may be lost while driving");
-    assert!(error.ate_rmse <= 0.02 * length, "{error:?}");
     assert_covariance_is_consistent(&slam.filter().p);
+    (lost, error.ate_rmse / length)
+}
+
+#[test]
+fn forward_driving_at_10_hz_keeps_tracking() {
+    let (lost, ate) = drive(SyntheticConfig::for_motion(SyntheticMotion::Drive));
+    assert_eq!(lost, 0, "no frame may be lost while driving");
+    assert!(ate <= 0.02, "ATE {:.2}% of the path", 100.0 * ate);
+}
+
+/// Every other frame of the drive (2 m between frames): the scale change of forward motion
+/// between frames is what used to lose half of these frames (15 of 30, ATE 16.5%), when the
+/// templates were scored at the predicted scale only.
+#[test]
+fn forward_driving_at_5_hz_keeps_tracking() {
+    let (lost, ate) = drive(SyntheticConfig {
+        fps: 5.0,
+        frames: 30,
+        ..SyntheticConfig::for_motion(SyntheticMotion::Drive)
+    });
+    assert_eq!(lost, 0, "no frame may be lost while driving");
+    assert!(ate <= 0.04, "ATE {:.2}% of the path", 100.0 * ate);
 }
 
 #[test]
