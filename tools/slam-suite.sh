@@ -11,6 +11,8 @@
 # - real, when KITTI_CLIPS_DIR is given (a folder of KITTI odometry clips): each clip as is,
 #   from its 16th frame, at 5 Hz (even and odd frames), and played backwards.
 # Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
+# With BASELINE=1, a last column gives the ATE of the 40-line OpenCV visual odometry
+# (tools/vo_baseline.py, in the peers' venv that tools/setup-peers.sh installs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 clips=""
@@ -65,7 +67,11 @@ if [ -n "$clips" ]; then
   done
 fi
 
-printf '%-22s %6s %8s %8s\n' sequence lost frames ATE%
+baseline=${BASELINE:-0}
+if [ "$baseline" = 1 ] && [ ! -x .venv-peers/bin/python ]; then bash tools/setup-peers.sh >/dev/null; fi
+printf '%-22s %6s %8s %8s' sequence lost frames ATE%
+[ "$baseline" = 1 ] && printf ' %12s' "OpenCV-VO%"
+printf '\n'
 total_lost=0 over=0 worst=0 count=0 sum=0
 for entry in "${sequences[@]}"; do
   name=${entry%%|*}
@@ -80,7 +86,20 @@ for entry in "${sequences[@]}"; do
   lost=$(sed -n 's/.*tracking lost on \([0-9]*\) frames.*/\1/p' "$log")
   frames=$(sed -n 's/.*: \([0-9]*\) frames (.*/\1/p' "$log" | head -1)
   ate=$(sed -n 's/.*RMSE (\([0-9.]*\)% of the.*/\1/p' "$log")
-  printf '%-22s %6s %8s %8s\n' "$name" "$lost" "$frames" "$ate"
+  printf '%-22s %6s %8s %8s' "$name" "$lost" "$frames" "$ate"
+  if [ "$baseline" = 1 ]; then
+    truth=$(find "$SUITE_DIR/$name" -maxdepth 1 \( -name poses.txt -o -name groundtruth.txt \) | head -1)
+    vo="$SUITE_DIR/$name.vo.txt"
+    if .venv-peers/bin/python tools/vo_baseline.py "$SUITE_DIR/$name" "${flags[@]}" --out "$vo" \
+      >/dev/null 2>&1; then
+      printf ' %12s' "$("$bin" slam-eval "$vo" "$truth" "${flags[@]}" --json |
+        sed -n 's/.*"ate_rmse": *\([0-9.e+-]*\).*"path_length": *\([0-9.e+-]*\).*/\1 \2/p' |
+        awk '{ printf "%.2f", 100 * $1 / $2 }')"
+    else
+      printf ' %12s' failed
+    fi
+  fi
+  printf '\n'
   total_lost=$((total_lost + lost))
   count=$((count + 1))
   if awk -v a="$ate" 'BEGIN { exit !(a > 2.0) }'; then over=$((over + 1)); fi
