@@ -58,7 +58,8 @@ pub struct SlamConfig {
     pub max_new_per_frame: usize,
     /// Cells of the grid (columns × rows) that spreads new landmarks over the image.
     pub grid: [usize; 2],
-    /// After a detection that created no landmark, frames to wait before detecting again.
+    /// After a detection that created no landmark, frames to wait before detecting again
+    /// (not while fewer than half of `target_visible` landmarks are in view).
     pub redetect_interval: usize,
     /// Linearity index under which an inverse-depth landmark becomes Euclidean.
     pub linearity_threshold: f64,

@@ -872,7 +872,13 @@ impl Slam {
         detector: &Detector,
     ) -> Result<(usize, f64, f64)> {
         let visible = self.visible_pixels();
-        if visible.len() >= self.config.target_visible || self.frame_index < self.detect_after {
+        // After a detection that found no free cell, wait before trying again, unless the
+        // map is down to less than half its target: then a frame without new landmarks
+        // risks losing the track, which costs more than a detection.
+        let critical = 2 * visible.len() < self.config.target_visible;
+        if visible.len() >= self.config.target_visible
+            || (self.frame_index < self.detect_after && !critical)
+        {
             return Ok((0, 0.0, 0.0));
         }
         let t_detect = Instant::now();
