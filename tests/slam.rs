@@ -102,7 +102,8 @@ fn forward_driving_at_10_hz_keeps_tracking() {
 
 /// Every other frame of the drive (2 m between frames): the scale change of forward motion
 /// between frames is what used to lose half of these frames (15 of 30, ATE 16.5%), when the
-/// templates were scored at the predicted scale only.
+/// templates were scored at the predicted scale only; new landmarks at the prior depth then
+/// kept the error near 3% until they started at their two-frame depth.
 #[test]
 fn forward_driving_at_5_hz_keeps_tracking() {
     let (lost, ate) = drive(SyntheticConfig {
@@ -111,7 +112,7 @@ fn forward_driving_at_5_hz_keeps_tracking() {
         ..SyntheticConfig::for_motion(SyntheticMotion::Drive)
     });
     assert_eq!(lost, 0, "no frame may be lost while driving");
-    assert!(ate <= 0.04, "ATE {:.2}% of the path", 100.0 * ate);
+    assert!(ate <= 0.025, "ATE {:.2}% of the path", 100.0 * ate);
 }
 
 #[test]

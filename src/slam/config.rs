@@ -56,6 +56,13 @@ pub struct SlamConfig {
     pub target_visible: usize,
     /// Most landmarks created in one frame.
     pub max_new_per_frame: usize,
+    /// Start a new landmark at the depth where its ray meets the ray of its KLT track in the
+    /// previous frame, when that is more certain than the prior ρ₀ ± σ (large steps between
+    /// frames); otherwise, and when false, at the prior.
+    pub two_frame_depth: bool,
+    /// Smallest σ_ρ/ρ given to a two-frame depth: the motion between the frames is itself an
+    /// estimate, however large the parallax.
+    pub two_frame_depth_floor: f64,
     /// Cells of the grid (columns × rows) that spreads new landmarks over the image.
     pub grid: [usize; 2],
     /// After a detection that created no landmark, frames to wait before detecting again
@@ -97,6 +104,8 @@ impl Default for SlamConfig {
             rescue_gate: 5.99,
             target_visible: 32,
             max_new_per_frame: 8,
+            two_frame_depth: true,
+            two_frame_depth_floor: 0.25,
             grid: [8, 6],
             redetect_interval: 10,
             linearity_threshold: 0.1,
@@ -122,6 +131,7 @@ impl SlamConfig {
             ("slam.rescue_gate", self.rescue_gate),
             ("slam.linearity_threshold", self.linearity_threshold),
             ("slam.template_refresh", self.template_refresh),
+            ("slam.two_frame_depth_floor", self.two_frame_depth_floor),
         ];
         for (field, v) in positive {
             if !(v.is_finite() && v > 0.0) {

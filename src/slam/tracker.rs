@@ -102,6 +102,9 @@ pub struct Slam {
     detect_after: usize,
     /// The previous frame's pyramid, the source of the KLT tracks.
     previous: Option<Pyramid>,
+    /// The camera pose estimated at the previous frame, for the two-frame depth of new
+    /// landmarks.
+    previous_pose: Option<(Vector3<f64>, Quat)>,
     /// Points followed from a reference frame until the two views fix the motion.
     bootstrap: Option<Bootstrap>,
     /// The filter holds a map seated from two views (false until the first bootstrap).
@@ -146,6 +149,7 @@ impl Slam {
             rng: Rng(0x5EED),
             detect_after: 0,
             previous: None,
+            previous_pose: None,
             bootstrap: None,
             started,
         })
@@ -226,6 +230,7 @@ impl Slam {
                 start,
             );
             self.previous = Some(pyramid);
+            self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
             self.frame_index += 1;
             return report;
         }
@@ -440,10 +445,12 @@ impl Slam {
         timings.filter_ms += ms(t_filter);
 
         // New landmarks where the image has no tracked feature.
-        let (created, detection_ms, creation_ms) = self.create_landmarks(frame, detector)?;
+        let views = previous.as_ref().map(|from| (from, &pyramid));
+        let (created, detection_ms, creation_ms) = self.create_landmarks(frame, detector, views)?;
         timings.detection_ms = detection_ms;
         timings.filter_ms += creation_ms;
         self.previous = Some(pyramid);
+        self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
         self.frame_index += 1;
         timings.total_ms = ms(start);
         Ok(FrameReport {
@@ -512,7 +519,7 @@ impl Slam {
             // start — the filter at rest, landmarks at the inverse-depth prior.
             self.bootstrap = None;
             self.started = true;
-            let (n, detection_ms, creation_ms) = self.create_landmarks(frame, detector)?;
+            let (n, detection_ms, creation_ms) = self.create_landmarks(frame, detector, None)?;
             created = n;
             timings.detection_ms = detection_ms;
             timings.filter_ms += creation_ms;
@@ -634,7 +641,37 @@ impl Slam {
         self.started = true;
         let visible = self.visible_pixels();
         let limit = (2 * self.config.target_visible).saturating_sub(visible.len());
-        self.add_at_free_cells(frame, &visible, inliers, limit)
+        self.add_at_free_cells(frame, &visible, inliers, limit, |_, _| None)
+    }
+
+    /// The inverse depth ρ and σ_ρ of a new landmark at pixel `z` from two frames: KLT
+    /// follows `z` back into the previous frame, and the two rays from the poses the filter
+    /// estimated meet at the point. `None` (the caller keeps the prior ρ₀ ± σ) when the track
+    /// fails, the rays do not meet in front of both cameras, or the parallax is too small for
+    /// the result to say more than the prior.
+    fn two_frame_prior(
+        &self,
+        z: &Vector2<f64>,
+        previous: &Pyramid,
+        current: &Pyramid,
+    ) -> Option<(f64, f64)> {
+        let (r0, q0) = self.previous_pose?;
+        let (r1, q1) = (self.filter.position(), self.filter.orientation());
+        let cam = &self.filter.camera;
+        let (rot0, rot1) = (rotation::matrix(&q0), rotation::matrix(&q1));
+        let direction1 = (rot1 * cam.back_project(*z).0).normalize();
+        // Start KLT where the point would be if it were at infinity: the rotation between
+        // the frames is then already accounted for.
+        let guess = cam.project(&(rot0.transpose() * direction1)).unwrap_or(*z);
+        let z0 = klt::track(current, previous, *z, guess, &KltParams::default())?;
+        let direction0 = (rot0 * cam.back_project(z0).0).normalize();
+        let (distance, parallax) = two_view::closest_approach(&r1, &direction1, &r0, &direction0)?;
+        let rho = 1.0 / distance;
+        // σ_ρ/ρ ≈ (σ/f)/α for one pixel of noise, with a floor for the uncertainty of the
+        // baseline itself (the motion between the frames is an estimate).
+        let relative = (self.config.pixel_sigma / cam.fx.max(cam.fy)) / parallax;
+        let sigma = rho * relative.max(self.config.two_frame_depth_floor);
+        (sigma < self.config.inverse_depth_sigma).then_some((rho, sigma))
     }
 
     /// Pixels of the landmarks predicted inside the image.
@@ -657,6 +694,7 @@ impl Slam {
         visible: &[Vector2<f64>],
         priors: impl IntoIterator<Item = (Vector2<f64>, f64, f64)>,
         limit: usize,
+        depth: impl Fn(&Self, &Vector2<f64>) -> Option<(f64, f64)>,
     ) -> usize {
         let cam = self.filter.camera.clone();
         let margin = (2 * self.config.template_half + 2) as f64;
@@ -690,6 +728,7 @@ impl Slam {
                 continue;
             }
             occupied[cell(&z)] = true;
+            let (rho, sigma) = depth(self, &z).unwrap_or((rho, sigma));
             chosen.push((z, rho, sigma));
             self.tracks.push(Track {
                 template,
@@ -870,6 +909,7 @@ impl Slam {
         &mut self,
         frame: &Frame,
         detector: &Detector,
+        views: Option<(&Pyramid, &Pyramid)>,
     ) -> Result<(usize, f64, f64)> {
         let visible = self.visible_pixels();
         // After a detection that found no free cell, wait before trying again, unless the
@@ -894,7 +934,10 @@ impl Slam {
             .keypoints
             .iter()
             .map(|kp| (Vector2::new(kp.x as f64, kp.y as f64), rho, sigma));
-        let created = self.add_at_free_cells(frame, &visible, priors, want);
+        let two_frames = views.filter(|_| self.config.two_frame_depth);
+        let created = self.add_at_free_cells(frame, &visible, priors, want, |slam, z| {
+            two_frames.and_then(|(previous, current)| slam.two_frame_prior(z, previous, current))
+        });
         if created == 0 {
             self.detect_after = self.frame_index + self.config.redetect_interval;
         }

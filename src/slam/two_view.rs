@@ -192,10 +192,49 @@ pub fn relative_pose(
     })
 }
 
+/// Where two rays come closest: the distance along the first from its centre, and the angle
+/// between the rays (the parallax). The directions must be unit vectors. `None` when the rays
+/// are (nearly) parallel or the point lies behind either centre.
+pub fn closest_approach(
+    centre0: &Vector3<f64>,
+    direction0: &Vector3<f64>,
+    centre1: &Vector3<f64>,
+    direction1: &Vector3<f64>,
+) -> Option<(f64, f64)> {
+    let cos = direction0.dot(direction1).clamp(-1.0, 1.0);
+    let denominator = 1.0 - cos * cos;
+    if denominator < 1e-12 {
+        return None;
+    }
+    let w = centre0 - centre1;
+    let (d, e) = (direction0.dot(&w), direction1.dot(&w));
+    let along0 = (cos * e - d) / denominator;
+    let along1 = (e - cos * d) / denominator;
+    (along0 > 0.0 && along1 > 0.0).then(|| (along0, cos.acos()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::slam::rotation;
+
+    #[test]
+    fn closest_approach_meets_at_the_point_and_refuses_parallel_or_backward_rays() {
+        let point = Vector3::new(1.0, -0.5, 12.0);
+        let (c0, c1) = (Vector3::new(0.0, 0.0, 2.0), Vector3::new(0.3, 0.1, 0.0));
+        let (d0, d1) = ((point - c0).normalize(), (point - c1).normalize());
+        let (distance, parallax) = closest_approach(&c0, &d0, &c1, &d1).expect("rays meet");
+        assert!((distance - (point - c0).norm()).abs() < 1e-9, "{distance}");
+        assert!((parallax - d0.dot(&d1).acos()).abs() < 1e-12);
+        assert!(
+            closest_approach(&c0, &d0, &c1, &d0).is_none(),
+            "parallel rays"
+        );
+        assert!(
+            closest_approach(&c0, &(-d0), &c1, &(-d1)).is_none(),
+            "behind both"
+        );
+    }
 
     #[test]
     fn recovers_a_forward_motion_with_a_turn_despite_outliers() {
