@@ -1,5 +1,5 @@
 //! Monocular EKF SLAM end to end on the generated room sequence: convergence with the
-//! constant-velocity and the odometry motion models, forward driving at 10 and 5 Hz, a consistent covariance, tracking lost
+//! constant-velocity and the odometry motion models, forward driving at 10 and 5 Hz, a car that waits before it drives off, a consistent covariance, tracking lost
 //! on blank frames and recovered against the kept map, the GPU detector feeding the filter, and bad input.
 
 mod common;
@@ -113,6 +113,44 @@ fn forward_driving_at_5_hz_keeps_tracking() {
     });
     assert_eq!(lost, 0, "no frame may be lost while driving");
     assert!(ate <= 0.025, "ATE {:.2}% of the path", 100.0 * ate);
+}
+
+/// A car that waits 1.5 s before it drives off: the filter starts at rest after 1 s (the
+/// paper's start, landmarks without depth), and must seat itself again from two views once
+/// the car moves. Before that re-seating, the same start on a real KITTI clip gave 11.5%.
+#[test]
+fn a_car_waiting_before_it_drives_off_is_tracked() {
+    let seq = SyntheticSequence::new(SyntheticConfig::for_motion(SyntheticMotion::Drive)).unwrap();
+    let detector = Detector::new(&DetectorConfig::tracking(), Backend::Cpu).unwrap();
+    let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
+    let wait = 15;
+    let dt = 1.0 / seq.config.fps;
+    let frames = (0..wait)
+        .map(|k| (0, k as f64 * dt))
+        .chain((0..seq.poses.len()).map(|k| (k, (wait + k) as f64 * dt)));
+    let (mut estimate, mut truth) = (Vec::new(), Vec::new());
+    let mut lost = 0;
+    let first = seq.render(0);
+    for (k, t) in frames {
+        let frame = if k == 0 { first.clone() } else { seq.render(k) };
+        let report = slam.process(&frame, t, None, &detector).unwrap();
+        lost += usize::from(report.lost);
+        estimate.push(pose_of(&report));
+        truth.push(Pose {
+            timestamp: t,
+            ..seq.poses[k]
+        });
+    }
+    let error = evaluate(&estimate, &truth, 0.02).unwrap();
+    let length = seq.path_length();
+    eprintln!(
+        "waiting, then driving: {lost} lost, ATE {:.2}% of the path",
+        100.0 * error.ate_rmse / length
+    );
+    assert_eq!(lost, 0, "no frame may be lost");
+    // 0.50% with the re-seating; 1.09% when the filter goes on from its depthless start.
+    assert!(error.ate_rmse <= 0.008 * length, "{error:?}");
+    assert_covariance_is_consistent(&slam.filter().p);
 }
 
 #[test]

@@ -9,7 +9,8 @@
 # - generated: the room (30 Hz) for seeds 1 2 3 7 11, the drive (10 Hz) for seeds 1 2 3 7 11,
 #   and the drive at 5 Hz for seeds 7 and 3;
 # - real, when KITTI_CLIPS_DIR is given (a folder of KITTI odometry clips): each clip as is,
-#   from its 16th frame, at 5 Hz (even and odd frames), and played backwards.
+#   from its 16th frame, at 5 Hz (even and odd frames), played backwards, and standing still
+#   on its first frame for 1.5 s before it drives off.
 # Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
 # With BASELINE=1, a last column gives the ATE of the 40-line OpenCV visual odometry
 # (tools/vo_baseline.py, in the peers' venv that tools/setup-peers.sh installs).
@@ -64,6 +65,8 @@ if [ -n "$clips" ]; then
     seq 0 2 $((n - 1)) | derive "$name-5hz-even" "$src" && sequences+=("$name-5hz-even|--fps 5")
     seq 1 2 $((n - 1)) | derive "$name-5hz-odd" "$src" && sequences+=("$name-5hz-odd|--fps 5")
     seq $((n - 1)) -1 0 | derive "$name-reversed" "$src" && sequences+=("$name-reversed|--fps 10")
+    { yes 0 | head -15; seq 0 $((n - 1)); } | derive "$name-stopped" "$src" &&
+      sequences+=("$name-stopped|--fps 10")
   done
 fi
 

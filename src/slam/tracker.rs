@@ -234,6 +234,22 @@ impl Slam {
             self.frame_index += 1;
             return report;
         }
+        if self.bootstrap.is_some() {
+            let t = Instant::now();
+            if let Some(created) =
+                self.follow_rest_start(frame, timestamp, previous.as_ref(), &pyramid)
+            {
+                self.previous = Some(pyramid);
+                self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
+                self.frame_index += 1;
+                let timings = SlamTimings {
+                    association_ms: ms(t),
+                    total_ms: ms(start),
+                    ..timings
+                };
+                return Ok(self.report(timestamp, timings, created, false));
+            }
+        }
         let half = self.config.template_half;
         let (r, q) = (self.filter.position(), self.filter.orientation());
         let filter = &self.filter;
@@ -481,30 +497,9 @@ impl Slam {
     ) -> Result<FrameReport> {
         let mut timings = SlamTimings::default();
         let mut created = 0;
-        let followed = match (self.bootstrap.as_mut(), previous) {
-            (Some(b), Some(from)) => {
-                let t = Instant::now();
-                let params = KltParams::default();
-                let moved: Vec<Option<Vector2<f64>>> = b
-                    .current
-                    .par_iter()
-                    .map(|&z| klt::track(from, pyramid, z, z, &params))
-                    .collect();
-                let mut kept = 0;
-                for (i, m) in moved.into_iter().enumerate() {
-                    if let Some(z) = m {
-                        b.start[kept] = b.start[i];
-                        b.current[kept] = z;
-                        kept += 1;
-                    }
-                }
-                b.start.truncate(kept);
-                b.current.truncate(kept);
-                timings.association_ms = ms(t);
-                kept
-            }
-            _ => 0,
-        };
+        let t = Instant::now();
+        let (followed, _) = self.follow_bootstrap(previous, pyramid);
+        timings.association_ms = ms(t);
         if followed >= MIN_BOOTSTRAP_POINTS {
             let t = Instant::now();
             created = self.try_seat(frame, timestamp);
@@ -516,8 +511,8 @@ impl Slam {
             .map_or(0.0, |b| timestamp - b.timestamp);
         if !self.started && followed >= MIN_BOOTSTRAP_POINTS && waited >= STATIONARY_START_AFTER {
             // The points stay put: the camera is (nearly) at rest, which is the paper's own
-            // start — the filter at rest, landmarks at the inverse-depth prior.
-            self.bootstrap = None;
+            // start — the filter at rest, landmarks at the inverse-depth prior. The points
+            // stay followed, to seat the filter again once it moves (`follow_rest_start`).
             self.started = true;
             let (n, detection_ms, creation_ms) = self.create_landmarks(frame, detector, None)?;
             created = n;
@@ -542,10 +537,77 @@ impl Slam {
         Ok(self.report(timestamp, timings, created, !self.started))
     }
 
+    /// Follows the start-up points from `previous` into `current` by KLT, dropping those it
+    /// loses. Returns how many are left and their median displacement in pixels.
+    fn follow_bootstrap(&mut self, previous: Option<&Pyramid>, current: &Pyramid) -> (usize, f64) {
+        let (Some(b), Some(from)) = (self.bootstrap.as_mut(), previous) else {
+            return (0, 0.0);
+        };
+        let params = KltParams::default();
+        let moved: Vec<Option<Vector2<f64>>> = b
+            .current
+            .par_iter()
+            .map(|&z| klt::track(from, current, z, z, &params))
+            .collect();
+        let mut kept = 0;
+        let mut displacements = Vec::with_capacity(moved.len());
+        for (i, m) in moved.into_iter().enumerate() {
+            if let Some(z) = m {
+                displacements.push((z - b.current[i]).norm());
+                b.start[kept] = b.start[i];
+                b.current[kept] = z;
+                kept += 1;
+            }
+        }
+        b.start.truncate(kept);
+        b.current.truncate(kept);
+        displacements.sort_by(f64::total_cmp);
+        (kept, displacements.get(kept / 2).copied().unwrap_or(0.0))
+    }
+
+    /// After a start at rest the map has bearings but no depths. The start-up points keep
+    /// being followed from the last frame at rest; once the camera has moved enough for two
+    /// views, the filter is seated again there as if it had started moving — the trajectory
+    /// continues from the pose at rest, and the depthless map is replaced. Returns the
+    /// landmarks created when it seated.
+    fn follow_rest_start(
+        &mut self,
+        frame: &Frame,
+        timestamp: f64,
+        previous: Option<&Pyramid>,
+        current: &Pyramid,
+    ) -> Option<usize> {
+        let (followed, median_step) = self.follow_bootstrap(previous, current);
+        let (r, q) = (self.filter.position(), self.filter.orientation());
+        if followed < MIN_BOOTSTRAP_POINTS {
+            let margin = KltParams::default().half_window + 2;
+            let points = klt::good_features(current, [16, 12], 2, margin);
+            self.bootstrap = Some(Bootstrap {
+                timestamp,
+                position: r,
+                orientation: q,
+                start: points.clone(),
+                current: points,
+            });
+            return None;
+        }
+        let b = self.bootstrap.as_mut()?;
+        if median_step < REST_STEP_PIXELS {
+            // Still at rest: the motion, when it comes, starts from here.
+            b.start.clone_from(&b.current);
+            b.timestamp = timestamp;
+            b.position = r;
+            b.orientation = q;
+            return None;
+        }
+        let created = self.try_seat(frame, timestamp);
+        (created > 0).then_some(created)
+    }
+
     /// Tries the two-view estimate on the followed points; when it is well determined, seats
     /// the filter and returns the number of landmarks created.
     fn try_seat(&mut self, frame: &Frame, timestamp: f64) -> usize {
-        let Some(b) = self.bootstrap.as_ref() else {
+        let Some(b) = self.bootstrap.clone() else {
             return 0;
         };
         let cam = self.filter.camera.clone();
@@ -603,6 +665,11 @@ impl Slam {
         let omega =
             rotation::to_rotation_vector(&rotation::from_matrix(&pose.rotation.transpose()))
                 / elapsed;
+        if self.started {
+            // Re-seating after a start at rest: the old landmarks carry no depth.
+            let all: Vec<usize> = (0..self.filter.slots.len()).collect();
+            self.remove(&all);
+        }
         let c = self.filter.motion.camera_dim();
         self.filter.x.as_mut_slice()[0..3].copy_from_slice(r.as_slice());
         self.filter.x.as_mut_slice()[3..7].copy_from_slice(q.as_slice());
@@ -989,6 +1056,9 @@ type Searched = (usize, Option<Observation>, bool, Option<Vector2<f64>>);
 /// Seconds without enough parallax after which the camera is taken to be at rest and the
 /// filter starts there, as in the paper.
 const STATIONARY_START_AFTER: f64 = 1.0;
+/// Median step of the start-up points between two frames, pixels, under which a camera that
+/// started at rest is taken to be still at rest.
+const REST_STEP_PIXELS: f64 = 0.5;
 /// Fewest points (followed, then inliers) for a two-view estimate.
 const MIN_BOOTSTRAP_POINTS: usize = 20;
 /// Parallax, radians, that a quarter of the inliers must reach for the two views to fix the
