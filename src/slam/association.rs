@@ -286,19 +286,19 @@ pub fn rescore_at_scales(
     best: (Vector2<f64>, f32),
 ) -> (Vector2<f64>, f32) {
     let nominal = warp.unwrap_or_else(Matrix2::identity);
+    let reach = 1.5;
     let around = SearchRegion {
         predicted: best.0,
         covariance: Matrix2::identity(),
-        gate: 2.0 * 1.5 * 1.5,
-        max_extent: 1.5,
+        // The whole square of half side `reach`, corners included.
+        gate: 2.0 * reach * reach,
+        max_extent: reach,
     };
+    let (width, height) = (frame.width as usize, frame.height as usize);
     scales
         .iter()
         .filter_map(|&s| normalised(&template.warped(Some(nominal * s), half)))
-        .filter_map(|t| {
-            let (w, h) = (frame.width as usize, frame.height as usize);
-            search(&frame.gray, w, h, &t, half, &around)
-        })
+        .filter_map(|t| search(&frame.gray, width, height, &t, half, &around))
         .fold(best, |a, b| if b.1 > a.1 { b } else { a })
 }
 

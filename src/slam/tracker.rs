@@ -229,9 +229,7 @@ impl Slam {
                 &pyramid,
                 start,
             );
-            self.previous = Some(pyramid);
-            self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
-            self.frame_index += 1;
+            self.end_frame(pyramid);
             return report;
         }
         if self.bootstrap.is_some() {
@@ -239,9 +237,7 @@ impl Slam {
             if let Some(created) =
                 self.follow_rest_start(frame, timestamp, previous.as_ref(), &pyramid)
             {
-                self.previous = Some(pyramid);
-                self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
-                self.frame_index += 1;
+                self.end_frame(pyramid);
                 let timings = SlamTimings {
                     association_ms: ms(t),
                     total_ms: ms(start),
@@ -465,9 +461,7 @@ impl Slam {
         let (created, detection_ms, creation_ms) = self.create_landmarks(frame, detector, views)?;
         timings.detection_ms = detection_ms;
         timings.filter_ms += creation_ms;
-        self.previous = Some(pyramid);
-        self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
-        self.frame_index += 1;
+        self.end_frame(pyramid);
         timings.total_ms = ms(start);
         Ok(FrameReport {
             predicted,
@@ -520,21 +514,33 @@ impl Slam {
             timings.filter_ms += creation_ms;
         }
         if !self.started && followed < MIN_BOOTSTRAP_POINTS {
-            // (Re)start the reference here.
             let t = Instant::now();
-            let margin = KltParams::default().half_window + 2;
-            let points = klt::good_features(pyramid, [16, 12], 2, margin);
+            self.restart_bootstrap(pyramid, timestamp);
             timings.detection_ms = ms(t);
-            self.bootstrap = Some(Bootstrap {
-                timestamp,
-                position: self.filter.position(),
-                orientation: self.filter.orientation(),
-                start: points.clone(),
-                current: points,
-            });
         }
         timings.total_ms = ms(start);
         Ok(self.report(timestamp, timings, created, !self.started))
+    }
+
+    /// Starts the two-view reference at this frame: Shi–Tomasi corners of `pyramid`, at the
+    /// filter's current pose.
+    fn restart_bootstrap(&mut self, pyramid: &Pyramid, timestamp: f64) {
+        let margin = KltParams::default().half_window + 2;
+        let points = klt::good_features(pyramid, [16, 12], 2, margin);
+        self.bootstrap = Some(Bootstrap {
+            timestamp,
+            position: self.filter.position(),
+            orientation: self.filter.orientation(),
+            start: points.clone(),
+            current: points,
+        });
+    }
+
+    /// Keeps this frame's pyramid and pose as the next frame's previous ones.
+    fn end_frame(&mut self, pyramid: Pyramid) {
+        self.previous = Some(pyramid);
+        self.previous_pose = Some((self.filter.position(), self.filter.orientation()));
+        self.frame_index += 1;
     }
 
     /// Follows the start-up points from `previous` into `current` by KLT, dropping those it
@@ -578,19 +584,11 @@ impl Slam {
         current: &Pyramid,
     ) -> Option<usize> {
         let (followed, median_step) = self.follow_bootstrap(previous, current);
-        let (r, q) = (self.filter.position(), self.filter.orientation());
         if followed < MIN_BOOTSTRAP_POINTS {
-            let margin = KltParams::default().half_window + 2;
-            let points = klt::good_features(current, [16, 12], 2, margin);
-            self.bootstrap = Some(Bootstrap {
-                timestamp,
-                position: r,
-                orientation: q,
-                start: points.clone(),
-                current: points,
-            });
+            self.restart_bootstrap(current, timestamp);
             return None;
         }
+        let (r, q) = (self.filter.position(), self.filter.orientation());
         let b = self.bootstrap.as_mut()?;
         if median_step < REST_STEP_PIXELS {
             // Still at rest: the motion, when it comes, starts from here.
