@@ -125,3 +125,62 @@ pub fn metrics_figure(
     root.present().map_err(|e| err(e.to_string()))?;
     Ok(())
 }
+
+/// Draws mean matching accuracy against the pixel threshold (1 … 10 px), one curve per
+/// detector, as HPatches reports it, and writes a PNG.
+pub fn mma_figure(
+    path: &Path,
+    summaries: &[crate::eval::matching::MatchingSummary],
+    title: &str,
+) -> Result<()> {
+    register_font();
+    let err = |e: String| Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    let root = BitMapBackend::new(path, (800, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(1f64..10f64, 0f64..1f64)
+        .map_err(|e| err(e.to_string()))?;
+    chart
+        .configure_mesh()
+        .x_desc("threshold (px)")
+        .y_desc("mean matching accuracy")
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    for (i, s) in summaries.iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        let width = if s.detector == "steernav" { 3 } else { 1 };
+        let pts: Vec<(f64, f64)> = s
+            .mma
+            .iter()
+            .enumerate()
+            .map(|(t, &m)| ((t + 1) as f64, m))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts, colour.stroke_width(width)))
+            .map_err(|e| err(e.to_string()))?
+            .label(s.detector.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(e.to_string()))?;
+    root.present().map_err(|e| err(e.to_string()))?;
+    Ok(())
+}

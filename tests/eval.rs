@@ -87,8 +87,13 @@ fn homography_sequence_in_the_oxford_layout() {
     // img3 without its homography is ignored.
     save(&scene, &dir.path().join("img3.png"));
     let det = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
-    let rows = homography_sequence(dir.path(), Some(&det), None, &EvalOptions::default()).unwrap();
+    let (rows, matching) =
+        homography_sequence(dir.path(), Some(&det), None, &EvalOptions::default()).unwrap();
     assert_eq!(rows.len(), 3);
+    // The rotated view matches, and its RANSAC homography is the true one at the corners.
+    assert_eq!(matching.len(), 1);
+    assert!(matching[0].matches >= 50 && matching[0].mma(3) >= 0.8, "{:?}", matching[0]);
+    assert!(matching[0].accurate(3.0), "{:?}", matching[0]);
     let at2 = rows.iter().find(|r| r.eps == 2.0).unwrap();
     assert_eq!(at2.angle, 2.0);
     assert!(at2.repeatability >= 0.8, "{at2:?}");

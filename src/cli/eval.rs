@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::{Args, Subcommand};
+use steernav::eval::matching::{self, PairMatching};
 use steernav::eval::peers::{PeerRunner, ALL_PEERS};
 use steernav::eval::sweep::{
     homography_sequence, parse_angles, rotation_sweep, summarize, summary_table, to_csv,
@@ -222,8 +223,9 @@ pub fn eval_rotation(cmd: RotationCmd) -> anyhow::Result<ExitCode> {
 
 pub fn eval_homography(cmd: HomographyCmd) -> anyhow::Result<ExitCode> {
     let setup = cmd.eval.setup()?;
+    let mut all_matching = Vec::new();
     for dir in &cmd.sequences {
-        let rows =
+        let (rows, matching) =
             homography_sequence(dir, setup.steernav.as_ref(), setup.peers(), &setup.options)?;
         let name = stem(dir);
         println!("== {}", dir.display());
@@ -235,8 +237,27 @@ pub fn eval_homography(cmd: HomographyCmd) -> anyhow::Result<ExitCode> {
             "image N (img1 against imgN)",
             "image",
         )?;
+        report_matching(&matching, &cmd.out, &name)?;
+        all_matching.extend(matching);
+    }
+    if cmd.sequences.len() > 1 {
+        println!("== all sequences");
+        report_matching(&all_matching, &cmd.out, "all")?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Prints the matching summary and writes `<name>_matching.csv` and `<name>_mma.png`.
+fn report_matching(rows: &[PairMatching], out: &Path, name: &str) -> anyhow::Result<()> {
+    let summaries = matching::summarize(rows);
+    print!("{}", matching::summary_table(&summaries));
+    let csv = out.join(format!("{name}_matching.csv"));
+    write_atomic(&csv, matching::to_csv(rows).as_bytes())?;
+    eprintln!("wrote {}", csv.display());
+    let png = out.join(format!("{name}_mma.png"));
+    steernav::plot::mma_figure(&png, &summaries, &format!("{name}: mean matching accuracy"))?;
+    eprintln!("wrote {}", png.display());
+    Ok(())
 }
 
 fn report(

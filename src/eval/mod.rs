@@ -2,6 +2,7 @@
 //! known maps, rotation sweeps and homography sequences, and the classic detectors as peers.
 
 pub mod homography;
+pub mod matching;
 pub mod peers;
 pub mod recall;
 pub mod repeatability;

@@ -39,7 +39,7 @@ impl Descriptors {
     }
 
     /// Distance between descriptor `i` of `self` and descriptor `j` of `other` (same kind).
-    fn distance(&self, i: usize, other: &Self, j: usize) -> f64 {
+    pub fn distance(&self, i: usize, other: &Self, j: usize) -> f64 {
         match (self, other) {
             (Descriptors::Float(a), Descriptors::Float(b)) => a[i]
                 .iter()

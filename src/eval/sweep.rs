@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use super::homography::{self, from_affine, Homography};
+use super::matching::{judge_pair, PairMatching};
 use super::peers::PeerRunner;
 use super::recall::{recall, Descriptors, KeypointSet};
 use super::repeatability::repeatability;
@@ -272,13 +273,14 @@ pub fn sequence_files(dir: &Path) -> Result<(PathBuf, Vec<SequenceView>)> {
     Ok((first, others))
 }
 
-/// Judges every detector on an Oxford-layout sequence (img1 against each imgN).
+/// Judges every detector on an Oxford-layout sequence (img1 against each imgN): the
+/// repeatability and recall rows, and the matching accuracy of each pair.
 pub fn homography_sequence(
     dir: &Path,
     steernav: Option<&Detector>,
     peers: Option<(&PeerRunner, &[String])>,
     opts: &EvalOptions,
-) -> Result<Vec<Row>> {
+) -> Result<(Vec<Row>, Vec<PairMatching>)> {
     let (first, others) = sequence_files(dir)?;
     let seq = dir.file_name().map_or_else(
         || dir.display().to_string(),
@@ -291,10 +293,17 @@ pub fn homography_sequence(
         .map(|(_, p, _)| Frame::load(p))
         .collect::<Result<_>>()?;
     let mut rows = Vec::new();
+    let mut matching = Vec::new();
+    let mut judge_matching = |name: &str, k: usize, a: &KeypointSet, b: &KeypointSet, h| {
+        let (a, b) = (a.top(opts.max_keypoints), b.top(opts.max_keypoints));
+        let image = format!("{seq}/img{k}");
+        matching.push(judge_pair(name, &image, &a, s1, &b, h, opts.ratio));
+    };
     if let Some(det) = steernav {
         let a = steernav_set(det, &f1)?;
         for ((k, _, h), f) in others.iter().zip(&frames) {
             let b = steernav_set(det, f)?;
+            judge_matching("steernav", *k, &a, &b, h);
             judge(
                 &mut rows,
                 "steernav",
@@ -319,6 +328,7 @@ pub fn homography_sequence(
             };
             for ((k, p, h), f) in others.iter().zip(&frames) {
                 if let Some(b) = found.get(&(p.display().to_string(), peer.clone())) {
+                    judge_matching(peer, *k, a, b, h);
                     judge(
                         &mut rows,
                         peer,
@@ -335,7 +345,7 @@ pub fn homography_sequence(
             }
         }
     }
-    Ok(rows)
+    Ok((rows, matching))
 }
 
 /// The rows as CSV text with [`CSV_HEADER`].

@@ -184,41 +184,94 @@ pub fn merge(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Cluster> {
         MergeMode::Covariant => covariant_stage1(candidates, plan),
         MergeMode::KmeansPp => kmeans_pp_stage1(candidates, plan),
     };
-    merge_close(stats, cfg.merge_radius, cfg.max_keypoints)
+    merge_close(stats, plan)
 }
 
-/// Stage 1, covariant: radius-suppression seeds, then confined Lloyd iterations.
+/// Points grouped by detection scale, one [`Grid`] per scale, for the scale-covariant radius
+/// queries of the merge: two detections are neighbours when their scales are adjacent (or
+/// equal) and they lie within a radius proportional to the larger of their scales.
+struct ScaleGrids {
+    /// Per scale: the grid and the global index of each of its points.
+    grids: Vec<Option<(Grid, Vec<usize>)>>,
+}
+
+impl ScaleGrids {
+    /// `cell(s)` must be at least the largest radius a query of scale s ± 1 asks at scale s.
+    fn new(points: &[(f32, f32)], scales: &[usize], count: usize, cell: impl Fn(usize) -> f32) -> Self {
+        let grids = (0..count)
+            .map(|s| {
+                let members: Vec<usize> = (0..points.len()).filter(|&i| scales[i] == s).collect();
+                if members.is_empty() {
+                    return None;
+                }
+                let pts: Vec<(f32, f32)> = members.iter().map(|&i| points[i]).collect();
+                Some((Grid::new(&pts, cell(s)), members))
+            })
+            .collect();
+        Self { grids }
+    }
+
+    /// Global indices of the points of scales s − 1 … s + 1 in the cells around `p`.
+    fn near(&self, p: (f32, f32), s: usize) -> impl Iterator<Item = usize> + '_ {
+        let last = self.grids.len() - 1;
+        (s.saturating_sub(1)..=(s + 1).min(last)).flat_map(move |t| {
+            self.grids[t]
+                .iter()
+                .flat_map(move |(g, members)| g.near(p).map(move |k| members[k]))
+        })
+    }
+}
+
+/// The merge's radius multiplier at each scale: σ_D(s) / σ_D(0).
+fn radius_factors(plan: &HarrisPlan) -> Vec<f32> {
+    let s0 = plan.scales[0].sigma_d;
+    plan.scales.iter().map(|s| s.sigma_d / s0).collect()
+}
+
+/// Stage 1, covariant: radius-suppression seeds, then confined Lloyd iterations, both with
+/// radii proportional to scale and only between adjacent scales, so a fine and a coarse
+/// detection at the same place stay two keypoints.
 fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let r = plan.config.merge_radius;
+    let factor = radius_factors(plan);
+    let ns = plan.scales.len();
+    // A query of scale s ± 1 reaches r·factor(s ± 1) ≤ r·factor(s)·step around scale s.
+    let spread = plan.config.scale_step;
     let points: Vec<(f32, f32)> = candidates.iter().map(|c| (c.x, c.y)).collect();
-    // Radius suppression, strongest first: a candidate becomes a seed unless a seed lies
-    // within r. Seeds are a subset of the candidates, so a grid over the candidates, marking
-    // which ones became seeds, answers the query.
-    let grid = Grid::new(&points, r);
+    let scale_of: Vec<usize> = candidates.iter().map(Candidate::scale_index).collect();
+    let pair_radius = |a: usize, b: usize| r * factor[a].max(factor[b]);
+    // Radius suppression, strongest first: a candidate becomes a seed unless a seed of an
+    // adjacent scale lies within the pair's radius.
+    let grids = ScaleGrids::new(&points, &scale_of, ns, |s| r * factor[s] * spread);
     let mut is_seed = vec![false; points.len()];
-    let mut seeds: Vec<(f32, f32)> = Vec::new();
+    let mut seeds: Vec<usize> = Vec::new();
     for (i, &p) in points.iter().enumerate() {
-        if grid
-            .near(p)
-            .all(|j| !is_seed[j] || dist2(points[j], p) > r * r)
-        {
+        let s = scale_of[i];
+        if grids.near(p, s).all(|j| {
+            let rr = pair_radius(s, scale_of[j]);
+            !is_seed[j] || dist2(points[j], p) > rr * rr
+        }) {
             is_seed[i] = true;
-            seeds.push(p);
+            seeds.push(i);
         }
     }
-    let reach = 1.5 * r;
+    let reach = 1.5;
     // Only the strongest clusters are kept (stage 2 stops at max_keypoints, and a cluster is
     // led by its seed), so seeds far down the list and the candidates out of reach of the
     // strongest seeds cannot reach the output: drop them before the Lloyd iterations.
     let limit = 4 * plan.config.max_keypoints;
     let kept: Vec<usize> = if seeds.len() > limit {
         seeds.truncate(limit);
-        let seed_grid = Grid::new(&seeds, 2.0 * reach);
+        let seed_points: Vec<(f32, f32)> = seeds.iter().map(|&i| points[i]).collect();
+        let seed_scales: Vec<usize> = seeds.iter().map(|&i| scale_of[i]).collect();
+        let seed_grids =
+            ScaleGrids::new(&seed_points, &seed_scales, ns, |s| 2.0 * reach * r * factor[s] * spread);
         (0..points.len())
             .filter(|&i| {
-                seed_grid
-                    .near(points[i])
-                    .any(|s| dist2(seeds[s], points[i]) <= 4.0 * reach * reach)
+                seed_grids.near(points[i], scale_of[i]).any(|k| {
+                    let rr = 2.0 * reach * pair_radius(scale_of[i], seed_scales[k]);
+                    dist2(seed_points[k], points[i]) <= rr * rr
+                })
             })
             .collect()
     } else {
@@ -226,16 +279,27 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     };
     let candidates: Vec<Candidate> = kept.iter().map(|&i| candidates[i]).collect();
     let points: Vec<(f32, f32)> = kept.iter().map(|&i| points[i]).collect();
-    let mut centres = seeds;
+    let scale_of: Vec<usize> = kept.iter().map(|&i| scale_of[i]).collect();
+    // Every seed is within reach of itself, so it is kept; each centre keeps its seed's scale.
+    let seed_at: Vec<usize> = seeds
+        .iter()
+        .map(|i| kept.binary_search(i).expect("seeds are kept"))
+        .collect();
+    let mut centre_scales: Vec<usize> = seed_at.iter().map(|&k| scale_of[k]).collect();
+    let mut centres: Vec<(f32, f32)> = seed_at.iter().map(|&k| points[k]).collect();
     let mut assignment: Vec<Option<usize>> = Vec::new();
     for iteration in 0..3 {
-        let grid = Grid::new(&centres, reach);
+        let grid = ScaleGrids::new(&centres, &centre_scales, ns, |s| reach * r * factor[s] * spread);
         assignment = points
             .par_iter()
-            .map(|&p| {
-                grid.near(p)
-                    .map(|i| (dist2(centres[i], p), i))
-                    .filter(|&(d, _)| d <= reach * reach)
+            .zip(&scale_of)
+            .map(|(&p, &s)| {
+                grid.near(p, s)
+                    .filter_map(|i| {
+                        let rr = reach * pair_radius(s, centre_scales[i]);
+                        let d = dist2(centres[i], p);
+                        (d <= rr * rr).then_some((d / (rr * rr), i))
+                    })
                     .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
                     .map(|(_, i)| i)
             })
@@ -266,9 +330,14 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
             break;
         }
         // Empty clusters disappear; renumbering keeps the order (and so the tie-breaks).
+        centre_scales = moved
+            .iter()
+            .zip(&centre_scales)
+            .filter_map(|(m, &s)| m.map(|_| s))
+            .collect();
         centres = moved.into_iter().flatten().collect();
     }
-    let (ns, no) = (plan.scales.len(), plan.orientations.len());
+    let no = plan.orientations.len();
     let mut stats = vec![Stats::new(ns, no); centres.len()];
     for (c, a) in candidates.iter().zip(&assignment) {
         if let Some(i) = *a {
@@ -345,10 +414,12 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     stats
 }
 
-/// Stage 2: strongest first, each cluster absorbs the weaker ones whose means lie within r.
-/// Clusters come out strongest first (an absorbed cluster is weaker than its absorber), so
-/// the loop stops at `limit`.
-fn merge_close(mut stats: Vec<Stats>, r: f32, limit: usize) -> Vec<Cluster> {
+/// Stage 2: strongest first, each cluster absorbs the weaker ones of an adjacent scale whose
+/// means lie within r times the larger scale factor. Clusters come out strongest first (an
+/// absorbed cluster is weaker than its absorber), so the loop stops at `limit`.
+fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan) -> Vec<Cluster> {
+    let (r, limit) = (plan.config.merge_radius, plan.config.max_keypoints);
+    let factor = radius_factors(plan);
     stats.sort_by(|a, b| {
         let (ca, cb) = (a.centre(), b.centre());
         b.strength
@@ -357,7 +428,9 @@ fn merge_close(mut stats: Vec<Stats>, r: f32, limit: usize) -> Vec<Cluster> {
             .then(ca.0.total_cmp(&cb.0))
     });
     let centres: Vec<(f32, f32)> = stats.iter().map(Stats::centre).collect();
-    let grid = Grid::new(&centres, r);
+    let scales: Vec<usize> = stats.iter().map(|s| argmax(&s.by_scale)).collect();
+    let spread = plan.config.scale_step;
+    let grid = ScaleGrids::new(&centres, &scales, plan.scales.len(), |s| r * factor[s] * spread);
     let mut absorbed = vec![false; stats.len()];
     let mut out = Vec::new();
     for i in 0..stats.len() {
@@ -369,8 +442,11 @@ fn merge_close(mut stats: Vec<Stats>, r: f32, limit: usize) -> Vec<Cluster> {
         }
         let mut total = stats[i].clone();
         let mut near: Vec<usize> = grid
-            .near(centres[i])
-            .filter(|&j| j > i && !absorbed[j] && dist2(centres[i], centres[j]) <= r * r)
+            .near(centres[i], scales[i])
+            .filter(|&j| {
+                let rr = r * factor[scales[i]].max(factor[scales[j]]);
+                j > i && !absorbed[j] && dist2(centres[i], centres[j]) <= rr * rr
+            })
             .collect();
         near.sort_unstable();
         for j in near {

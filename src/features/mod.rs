@@ -9,6 +9,7 @@ pub mod filter_bank;
 pub mod harris;
 pub mod matching;
 pub mod merge;
+pub mod pyramid;
 pub mod steerable;
 pub mod steered;
 

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use super::plan::{harris_response, HarrisPlan};
 use crate::features::convolve::{column_at, convolve_separable, row_at};
+use crate::features::pyramid::Pyramid;
 use crate::features::Candidate;
 use crate::simd::{axpy, max_or};
 
@@ -79,14 +80,16 @@ impl CpuHarris {
         s: usize,
     ) -> Vec<Vec<f32>> {
         let scale = &self.plan.scales[s];
-        let g = scale.step as usize;
+        let g = scale.level_step() as usize;
+        let pyramid = Pyramid::new(gray, width, height, &self.plan.pyramid);
+        let (level, width, height) = pyramid.level(scale.level);
         let mut scratch = vec![0.0; width * height];
         let mut full = vec![0.0; width * height];
         scale
             .derivatives
             .iter()
             .map(|f| {
-                convolve_separable(gray, &mut full, &mut scratch, width, height, f);
+                convolve_separable(level, &mut full, &mut scratch, width, height, f);
                 full.chunks(width)
                     .step_by(g)
                     .flat_map(|row| row.iter().step_by(g).copied())
@@ -99,12 +102,13 @@ impl CpuHarris {
     pub fn responses(&self, gray: &[f32], width: usize, height: usize) -> ResponseStack {
         let plan = &self.plan;
         let grids = plan.grids(width, height);
+        let pyramid = Pyramid::new(gray, width, height, &plan.pyramid);
         let responses = grids
             .iter()
             .enumerate()
             .map(|(s, &(gw, gh))| {
                 let mut plane = vec![0.0; gw * gh * plan.orientations.len()];
-                scale_responses(plan, &self.terms, s, gray, width, height, 0..gh, &mut plane);
+                scale_responses(plan, &self.terms, s, &pyramid, 0..gh, &mut plane);
                 plane
             })
             .collect();
@@ -141,7 +145,8 @@ impl CpuHarris {
         // Rows a band's suppression reads beyond its own: ±1 grid row of its scale, and the 3×3
         // around the nearest sample of the adjacent scales (±1.5 of their steps).
         let halo = 2 * max_step + 1;
-        let (mut responses_time, mut nms_time) = (Default::default(), Default::default());
+        let (mut responses_time, mut nms_time) =
+            (std::time::Duration::default(), std::time::Duration::default());
         let config = &plan.config;
         let capacity = config.candidate_capacity;
         // The strongest response so far; the final one is at least this, so candidates below
@@ -151,6 +156,9 @@ impl CpuHarris {
         // final threshold is at least it (see `overflows`).
         let mut capacity_floor = f32::NEG_INFINITY;
         let mut found: Vec<Candidate> = Vec::new();
+        let t_pyramid = std::time::Instant::now();
+        let pyramid = Pyramid::new(gray, width, height, &plan.pyramid);
+        responses_time += t_pyramid.elapsed();
         for y0 in (0..height).step_by(band_rows) {
             let y1 = (y0 + band_rows).min(height);
             let t0 = std::time::Instant::now();
@@ -167,9 +175,7 @@ impl CpuHarris {
                     plan,
                     &self.terms,
                     s,
-                    gray,
-                    width,
-                    height,
+                    &pyramid,
                     first..last,
                     &mut band.data,
                 );
@@ -246,27 +252,26 @@ struct BandScratch {
 const BAND_PIXEL_ROWS: usize = 48;
 
 /// Harris responses (eqs 5–8) of scale `s` on its grid, computed band by band: each band
-/// filters the image into the derivative planes D_k at the grid's samples, forms their
+/// filters the scale's pyramid level into the derivative planes D_k at the grid's samples, forms their
 /// products, blurs them with the window on the grid (columns, then rows) and evaluates R for
 /// every orientation, all in buffers that stay in cache. The arithmetic is that of the
 /// GPU's passes (same taps and clamping; folded sums). Only `grid_rows` are computed,
 /// into `out` laid out `[θ][row − grid_rows.start][i]`; every row's value is the same whatever the
 /// range. Returns the strongest response computed (0 when none is positive): the maximum the
 /// relative threshold needs, fused into the pass.
-#[allow(clippy::too_many_arguments)]
 fn scale_responses(
     plan: &HarrisPlan,
     terms: &TensorTerms,
     s: usize,
-    gray: &[f32],
-    width: usize,
-    height: usize,
+    pyramid: &Pyramid,
     grid_rows: std::ops::Range<usize>,
     out: &mut [f32],
 ) -> f32 {
     let scale = &plan.scales[s];
-    let step = scale.step as usize;
-    let (gw, gh) = scale.grid(width, height);
+    let (gray, width, height) = pyramid.level(scale.level);
+    let step = scale.level_step() as usize;
+    // The full-resolution grid is every `step` pixels of the level (sizes round up alike).
+    let (gw, gh) = (width.div_ceil(step), height.div_ceil(step));
     let plane = gw * grid_rows.len();
     let count = scale.derivatives.len();
     let products = plan.products.len();

@@ -236,6 +236,14 @@ pub struct GpuTimings {
     pub nms_ms: f64,
 }
 
+/// Bind groups of one pyramid decimation (level l into level l + 1).
+struct PyramidGroups {
+    column_groups: (u32, u32),
+    row_groups: (u32, u32),
+    columns: wgpu::BindGroup,
+    rows: wgpu::BindGroup,
+}
+
 /// Bind groups and job counts of one scale.
 struct ScaleGroups {
     /// Workgroups covering the derivative column pass's output (full width, grid rows) and
@@ -256,6 +264,9 @@ struct FrameResources {
     width: u32,
     height: u32,
     gray: wgpu::Buffer,
+    /// Pyramid levels 1, 2, … (level 0 is `gray`), kept alive for the bind groups.
+    _levels: Vec<wgpu::Buffer>,
+    pyramid: Vec<PyramidGroups>,
     derivatives: wgpu::Buffer,
     responses: Vec<wgpu::Buffer>,
     nms_settings: wgpu::Buffer,
@@ -287,6 +298,7 @@ pub struct GpuHarris {
     derivative_columns: Vec<Vec<TapRef>>,
     derivative_rows: Vec<Vec<TapRef>>,
     windows: Vec<TapRef>,
+    pyramid_kernels: Vec<TapRef>,
     frames: Mutex<Vec<FrameResources>>,
     /// Which in-flight slots hold a submitted frame not finished yet.
     busy: Mutex<[bool; FLIGHT_SLOTS]>,
@@ -312,6 +324,7 @@ impl GpuHarris {
             derivative_rows.push(s.derivatives.iter().map(|f| push(&f.row)).collect());
             windows.push(push(&s.window));
         }
+        let pyramid_kernels = plan.pyramid.iter().map(&mut push).collect();
         let device = &ctx.device;
         let taps = storage_init(device, "taps", &taps);
         let weights = storage_init(device, "tensor weights", &plan.tensor_weights);
@@ -323,6 +336,7 @@ impl GpuHarris {
             derivative_columns,
             derivative_rows,
             windows,
+            pyramid_kernels,
             frames: Mutex::new(Vec::new()),
             busy: Mutex::new([false; FLIGHT_SLOTS]),
         }
@@ -428,6 +442,66 @@ impl GpuHarris {
             plane * 4 * count.max(products) as u64,
         );
         let derivatives = storage(device, "derivatives", plane * 4 * count as u64);
+        let (w, h) = (width as usize, height as usize);
+        let level_dims = |l: u32| {
+            let (lw, lh) = super::plan::level_size(w, h, l);
+            (lw as u32, lh as u32)
+        };
+        let levels: Vec<wgpu::Buffer> = (1..plan.levels() as u32)
+            .map(|l| {
+                let (lw, lh) = level_dims(l);
+                storage(device, "pyramid level", lw as u64 * lh as u64 * 4)
+            })
+            .collect();
+        let level_buffer = |l: u32| if l == 0 { &gray } else { &levels[l as usize - 1] };
+        // Level l into level l + 1: blurred columns at every second row into `tmp`, then
+        // blurred rows at every second column into the next level.
+        let pyramid: Vec<PyramidGroups> = self
+            .pyramid_kernels
+            .iter()
+            .enumerate()
+            .map(|(l, k)| {
+                let (lw, lh) = level_dims(l as u32);
+                let columns = Dims::pass(lw, lh, 2, false);
+                let rows = Dims::pass(lw, columns.dst_height, 2, true);
+                let job = storage_init(
+                    device,
+                    "pyramid job",
+                    &[Job {
+                        src: 0,
+                        dst: 0,
+                        taps: k.offset,
+                        radius: k.radius,
+                    }],
+                );
+                PyramidGroups {
+                    column_groups: groups_2d(lw, columns.dst_height),
+                    row_groups: groups_2d(rows.dst_width, rows.dst_height),
+                    columns: bind(
+                        device,
+                        &pipes.convolve_columns,
+                        &[
+                            &uniform(device, "pyramid column dims", &columns),
+                            &job,
+                            &self.taps,
+                            level_buffer(l as u32),
+                            &tmp,
+                        ],
+                    ),
+                    rows: bind(
+                        device,
+                        &pipes.convolve_rows,
+                        &[
+                            &uniform(device, "pyramid row dims", &rows),
+                            &job,
+                            &self.taps,
+                            &tmp,
+                            level_buffer(l as u32 + 1),
+                        ],
+                    ),
+                }
+            })
+            .collect();
         let prod = storage(device, "products", plane * 4 * products as u64);
         let grids: Vec<(u32, u32)> = plan
             .grids(width as usize, height as usize)
@@ -526,17 +600,21 @@ impl GpuHarris {
                         .collect(),
                 );
                 let step = plan.scales[s].step;
+                let level_step = plan.scales[s].level_step();
+                let level = plan.scales[s].level;
+                let (lw, lh) = level_dims(level);
                 let (gw, gh) = grids[s];
                 let (ps, ns) = (s.saturating_sub(1), (s + 1).min(plan.scales.len() - 1));
-                // Derivatives sampled on the grid: columns at every step-th row, then rows
-                // at every step-th column; products and window blur on the grid.
-                let column_dims = Dims::pass(width, height, step, false);
+                // Derivatives sampled on the grid from the scale's pyramid level: columns at
+                // the level's rows of the grid, then rows at its columns; products and window
+                // blur on the grid.
+                let column_dims = Dims::pass(lw, lh, level_step, false);
                 let derivative_column_dims =
                     uniform(device, "derivative column dims", &column_dims);
                 let derivative_row_dims = uniform(
                     device,
                     "derivative row dims",
-                    &Dims::pass(width, gh, step, true),
+                    &Dims::pass(lw, gh, level_step, true),
                 );
                 let blur_column_dims =
                     uniform(device, "blur column dims", &Dims::pass(gw, gh, 1, false));
@@ -590,12 +668,18 @@ impl GpuHarris {
                 let prev = &responses[s.saturating_sub(1)];
                 let next = &responses[(s + 1).min(plan.scales.len() - 1)];
                 ScaleGroups {
-                    column_groups: groups_2d(width, column_dims.dst_height),
+                    column_groups: groups_2d(lw, column_dims.dst_height),
                     grid_groups: groups_2d(gw, gh),
                     derivative_columns: bind(
                         device,
                         &pipes.convolve_columns,
-                        &[&derivative_column_dims, &dc, &self.taps, &gray, &tmp],
+                        &[
+                            &derivative_column_dims,
+                            &dc,
+                            &self.taps,
+                            level_buffer(level),
+                            &tmp,
+                        ],
                     ),
                     derivative_rows: bind(
                         device,
@@ -648,6 +732,8 @@ impl GpuHarris {
             width,
             height,
             gray,
+            _levels: levels,
+            pyramid,
             derivatives,
             responses,
             nms_settings,
@@ -692,6 +778,18 @@ impl GpuHarris {
                     label: Some("filter bank"),
                     timestamp_writes: stamp(0),
                 });
+                if s == 0 {
+                    // The pyramid first, inside the first filter-bank pass (its time counts
+                    // there); dispatches in one pass see each other's writes.
+                    for p in &f.pyramid {
+                        pass.set_pipeline(&pipes.convolve_columns);
+                        pass.set_bind_group(0, &p.columns, &[]);
+                        pass.dispatch_workgroups(p.column_groups.0, p.column_groups.1, 1);
+                        pass.set_pipeline(&pipes.convolve_rows);
+                        pass.set_bind_group(0, &p.rows, &[]);
+                        pass.dispatch_workgroups(p.row_groups.0, p.row_groups.1, 1);
+                    }
+                }
                 pass.set_pipeline(&pipes.convolve_columns);
                 pass.set_bind_group(0, &g.derivative_columns, &[]);
                 pass.dispatch_workgroups(g.column_groups.0, g.column_groups.1, count);
@@ -799,12 +897,15 @@ impl GpuHarris {
             .scales
             .iter()
             .map(|sc| {
+                // The derivative filters reach their radius in level pixels, and each level
+                // pixel the blurs that built it.
                 let filter = sc
                     .derivatives
                     .iter()
                     .map(|f| f.column.radius().max(f.row.radius()))
                     .max()
                     .unwrap_or(0) as u32;
+                let filter = (filter << sc.level) + self.plan.level_reach(sc.level);
                 filter + sc.window.radius() as u32 * sc.step + sc.margin
             })
             .max()

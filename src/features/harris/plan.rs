@@ -3,6 +3,12 @@
 //! Harris response R = det − k·tr² (eq 8). Built once per configuration and image size.
 //!
 //! Why the plan steers gradients and never filtered images: see [`crate::features::steerable`].
+//!
+//! **Octaves.** The derivative filters of a coarse scale run on an image pyramid (each level
+//! blurred and decimated by 2), on the coarsest level where σ_e still spans
+//! [`LEVEL_MIN_SIGMA`] of its pixels, with the kernel that brings the level's own blur up to
+//! σ_e: each octave then costs about a quarter of the one below it, and the response grids
+//! (and so every later stage) are those of the full-resolution computation.
 
 use crate::features::config::DetectorConfig;
 use crate::features::steerable::{orientations, steering_coefficients, Kernel1d, Separable};
@@ -31,9 +37,52 @@ pub struct ScalePlan {
     /// of two ≤ σ_I / 1.4: the window passes at most exp(−π²·1.4²/2) ≈ 6e-5 at the grid's
     /// Nyquist frequency).
     pub step: u32,
+    /// Pyramid level (image decimated by 2^level) the derivative filters run on.
+    pub level: u32,
+}
+
+/// Blur of every pyramid level above the base, in that level's own pixels. Before each
+/// decimation the level is blurred to twice this, which passes exp(−(2·π/2)²/2) ≈ 0.7% at the
+/// decimated grid's Nyquist frequency.
+pub const PYRAMID_BLUR: f32 = 1.0;
+
+/// A scale's derivatives run on the coarsest level where σ_e spans at least this many level
+/// pixels: the third-order derivative filters then have σ ≥ √(2² − 1) ≈ 1.7 level pixels,
+/// enough to sample them accurately.
+pub const LEVEL_MIN_SIGMA: f32 = 2.0;
+
+/// The pyramid level of a scale with effective scale `sigma_e` sampled every `step` pixels:
+/// the coarsest whose pixels still divide the step and hold σ_e over [`LEVEL_MIN_SIGMA`] pixels.
+pub fn pyramid_level(sigma_e: f32, step: u32) -> u32 {
+    let mut level = 0;
+    while (2u32 << level) <= step && sigma_e / (2u32 << level) as f32 >= LEVEL_MIN_SIGMA {
+        level += 1;
+    }
+    level
+}
+
+/// The blur a pyramid level already carries, in full-resolution pixels (the base: none).
+pub fn level_blur(level: u32) -> f32 {
+    if level == 0 {
+        0.0
+    } else {
+        PYRAMID_BLUR * (1u32 << level) as f32
+    }
+}
+
+/// Size of pyramid level `level` of a `width`×`height` image: pixel i of the level is pixel
+/// i·2^level of the image, so the level's size is the image's divided by 2^level, rounded up.
+pub fn level_size(width: usize, height: usize, level: u32) -> (usize, usize) {
+    let f = 1usize << level;
+    (width.div_ceil(f), height.div_ceil(f))
 }
 
 impl ScalePlan {
+    /// The sampling step of this scale's grid on its pyramid level.
+    pub fn level_step(&self) -> u32 {
+        self.step >> self.level
+    }
+
     /// Size of the response grid for a `width`×`height` image.
     pub fn grid(&self, width: usize, height: usize) -> (usize, usize) {
         let g = self.step as usize;
@@ -69,6 +118,9 @@ pub struct HarrisPlan {
     /// Per orientation, three rows of `products.len()` weights giving Mxx, Mxy, Myy as dot
     /// products with the blurred products Q (layout `[θ][entry][product]`).
     pub tensor_weights: Vec<f32>,
+    /// `pyramid[l]` blurs level l before it is decimated into level l + 1 (levels beyond the
+    /// base exist only when a scale runs on them).
+    pub pyramid: Vec<Kernel1d>,
 }
 
 impl HarrisPlan {
@@ -102,15 +154,21 @@ impl HarrisPlan {
                 }
             }
         }
-        let scales = (0..config.scales)
+        let scales: Vec<ScalePlan> = (0..config.scales)
             .map(|s| {
                 let sigma_d = config.sigma_d(s);
                 let sigma_e = config.sigma_e(s);
-                let norm = sigma_e.powf(config.scale_normalization);
+                let step = grid_step(config.sigma_i(s));
+                let level = pyramid_level(sigma_e, step);
+                let factor = (1u32 << level) as f32;
+                // The kernel in level pixels that brings the level's blur up to σ_e; a
+                // derivative of order m in level pixels is factor^m times one in image pixels.
+                let sigma = (sigma_e * sigma_e - level_blur(level).powi(2)).sqrt() / factor;
+                let norm = sigma_e.powf(config.scale_normalization) / factor.powi(m as i32);
                 let derivatives = (0..count)
                     .map(|k| Separable {
-                        column: Kernel1d::gaussian_derivative(sigma_e, k, config.truncate),
-                        row: Kernel1d::gaussian_derivative(sigma_e, m - k, config.truncate)
+                        column: Kernel1d::gaussian_derivative(sigma, k, config.truncate),
+                        row: Kernel1d::gaussian_derivative(sigma, m - k, config.truncate)
                             .scaled(norm),
                     })
                     .collect();
@@ -126,8 +184,18 @@ impl HarrisPlan {
                     margin: config.margin(s),
                     rank_weight: (sigma_e / config.sigma_e(0))
                         .powf(4.0 * (config.rank_normalization - config.scale_normalization)),
-                    step: grid_step(config.sigma_i(s)),
+                    step,
+                    level,
                 }
+            })
+            .collect();
+        let levels = scales.iter().map(|s| s.level).max().unwrap_or(0);
+        let pyramid = (0..levels)
+            .map(|l| {
+                // From the level's own blur to twice PYRAMID_BLUR, in the level's pixels.
+                let own = if l == 0 { 0.0 } else { PYRAMID_BLUR };
+                let sigma = ((2.0 * PYRAMID_BLUR).powi(2) - own * own).sqrt();
+                Kernel1d::gaussian_derivative(sigma, 0, config.truncate)
             })
             .collect();
         Self {
@@ -136,7 +204,24 @@ impl HarrisPlan {
             scales,
             products,
             tensor_weights,
+            pyramid,
         }
+    }
+
+    /// Number of pyramid levels, the base included.
+    pub fn levels(&self) -> usize {
+        self.pyramid.len() + 1
+    }
+
+    /// How far (image pixels) a pixel of level `level` reaches into the image through the
+    /// blurs that built it.
+    pub fn level_reach(&self, level: u32) -> u32 {
+        self.pyramid
+            .iter()
+            .take(level as usize)
+            .enumerate()
+            .map(|(l, k)| (k.radius() as u32) << l)
+            .sum()
     }
 
     /// The response grid (columns, rows) of every scale for a `width`×`height` image.
