@@ -16,35 +16,40 @@ import cv2
 import numpy as np
 
 
+def factory(attr):
+    """cv2.<attr>, or cv2.xfeatures2d.<attr> where OpenCV 5 moved it (AGAST, and others in
+    some builds); None when the installed OpenCV has neither."""
+    for module in (cv2, getattr(cv2, "xfeatures2d", None)):
+        if module is not None and hasattr(module, attr):
+            return getattr(module, attr)
+    return None
+
+
 def make(name):
-    if name == "agast":
-        return cv2.AgastFeatureDetector_create(), None
-    if name == "brisk":
-        return cv2.BRISK_create(), "self"
-    if name == "censure":
-        star = getattr(cv2, "xfeatures2d", None)
-        if star is None or not hasattr(star, "StarDetector_create"):
-            return None, None
-        return star.StarDetector_create(), None
-    if name == "orb":
-        return cv2.ORB_create(nfeatures=5000), "self"
-    if name == "sift":
-        return cv2.SIFT_create(), "self"
-    if name == "surf":
-        xf = getattr(cv2, "xfeatures2d", None)
-        try:
-            return xf.SURF_create(), "self"
-        except Exception:
-            return None, None
-    if name == "fast":
-        return cv2.FastFeatureDetector_create(), None
-    if name == "kaze":
-        return cv2.KAZE_create(), "self"
-    if name == "akaze":
-        return cv2.AKAZE_create(), "self"
+    simple = {
+        "agast": ("AgastFeatureDetector_create", {}, None),
+        "brisk": ("BRISK_create", {}, "self"),
+        "censure": ("StarDetector_create", {}, None),
+        "orb": ("ORB_create", {"nfeatures": 5000}, "self"),
+        "sift": ("SIFT_create", {}, "self"),
+        "surf": ("SURF_create", {}, "self"),
+        "fast": ("FastFeatureDetector_create", {}, None),
+        "kaze": ("KAZE_create", {}, "self"),
+        "akaze": ("AKAZE_create", {}, "self"),
+    }
     if name == "harris":
         return "harris", None
-    raise SystemExit(f"unknown detector {name}")
+    if name not in simple:
+        raise SystemExit(f"unknown detector {name}")
+    attr, kwargs, desc = simple[name]
+    create = factory(attr)
+    if create is None:
+        return None, None
+    try:
+        # SURF is patented: contrib wheels without OPENCV_ENABLE_NONFREE raise here.
+        return create(**kwargs), desc
+    except Exception:
+        return None, None
 
 
 ALL = ["agast", "brisk", "censure", "orb", "sift", "surf", "fast", "kaze", "akaze", "harris"]
@@ -83,7 +88,7 @@ def detect(name, img):
         for k, a in zip(kps, centroid_angles(gray, kps)):
             k.angle = a
             k.size = max(k.size, 7.0)
-    extractor = det if desc == "self" else cv2.SIFT_create()
+    extractor = det if desc == "self" else factory("SIFT_create")()
     kps, d = extractor.compute(gray, kps)
     kps = list(kps) if kps is not None else []
     norm = "hamming" if d is not None and d.dtype == np.uint8 and name in ("brisk", "orb", "akaze") else "l2"

@@ -667,6 +667,7 @@ fn recall(
         Ok(KeypointSet {
             points,
             descriptors: Descriptors::Float(rows),
+            scales: Vec::new(),
         })
     };
     let (a, b) = (set(&kp1, &desc1, "kp1")?, set(&kp2, &desc2, "kp2")?);

@@ -96,7 +96,8 @@ pub struct DetectorFlags {
     /// Number of steered orientations N, spread over [0°, 180°) [default: 12].
     #[arg(long, value_name = "N")]
     pub orientations: Option<usize>,
-    /// Number of detection scales S (σ_D = 1.0 · 1.4^s) [default: 5].
+    /// Number of detection scales S (σ_D = 1.0 · √2^s: 11 span five octaves, σ_D 1–32)
+    /// [default: 11; slam: 3].
     #[arg(long, value_name = "S")]
     pub scales: Option<usize>,
     /// Keep at most K keypoints, the strongest [default: 500].
@@ -116,7 +117,7 @@ pub struct DetectorFlags {
     #[arg(long, value_name = "R")]
     pub threshold: Option<f32>,
     /// A candidate's response must exceed this fraction of the frame's strongest response;
-    /// 0 leaves only --threshold [default: 0.005].
+    /// 0 leaves only --threshold [default: 0.001].
     #[arg(long, value_name = "F")]
     pub relative_threshold: Option<f32>,
 }

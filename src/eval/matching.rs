@@ -5,14 +5,18 @@
 //!   the second, for t = 1 … 10;
 //! - **correct matches** at 3 px;
 //! - **homography accuracy**: the homography RANSAC fits to the matches (3 px) moves the four
-//!   image corners by a mean of at most 1, 3 or 5 px from where the true map sends them.
+//!   image corners by a mean of at most 1, 3 or 5 px from where the true map sends them;
+//! - **repeatability** at 3 px (eq 11) and under the region-overlap criterion
+//!   ([`super::overlap`]), which also asks the scales to follow the map.
 //!
 //! The same code judges steernav and every peer, on the same keypoint count.
 
 use rayon::prelude::*;
 
 use super::homography::{project, Homography};
+use super::overlap::overlap_repeatability;
 use super::recall::KeypointSet;
+use super::repeatability::repeatability;
 use crate::features::matching::{verify, PointPair, Verification};
 
 /// Thresholds (px) of the MMA curve: 1, 2, … , 10.
@@ -37,6 +41,10 @@ pub struct PairMatching {
     /// Mean corner displacement of the RANSAC homography against the true one (px); `None`
     /// when RANSAC found none.
     pub corner_error: Option<f64>,
+    /// Repeatability (eq 11) at 3 px.
+    pub repeatability_3px: f64,
+    /// Repeatability under the region-overlap criterion; `None` without scales.
+    pub repeatability_overlap: Option<f64>,
 }
 
 impl PairMatching {
@@ -86,16 +94,19 @@ pub fn mutual_ratio_matches(a: &KeypointSet, b: &KeypointSet, ratio: f64) -> Vec
         .collect()
 }
 
-/// Matches two views (`a` in the view of size `size_a`) and judges the matches against the
-/// true map `h` (view a → view b).
+/// Matches two views (`a` in the view of size `size_a`, `b` in `size_b`) and judges the
+/// matches and the keypoints against the true map `h` (view a → view b); `margin` is the
+/// border the repeatability leaves out.
+#[allow(clippy::too_many_arguments)]
 pub fn judge_pair(
     detector: &str,
     image: &str,
     a: &KeypointSet,
     size_a: (u32, u32),
     b: &KeypointSet,
+    size_b: (u32, u32),
     h: &Homography,
-    ratio: f64,
+    (ratio, margin): (f64, f64),
 ) -> PairMatching {
     let matches = mutual_ratio_matches(a, b, ratio);
     let mut correct = [0usize; MMA_THRESHOLDS];
@@ -125,6 +136,9 @@ pub fn judge_pair(
         matches: matches.len(),
         correct,
         corner_error,
+        repeatability_3px: repeatability(&a.points, size_a, &b.points, size_b, h, 3.0, margin).ratio,
+        repeatability_overlap: overlap_repeatability(a, size_a, b, size_b, h, margin)
+            .map(|r| r.ratio),
     }
 }
 
@@ -142,7 +156,7 @@ pub fn corner_error(estimated: &Homography, truth: &Homography, (w, h): (u32, u3
 }
 
 /// The CSV header of [`to_csv`].
-pub const CSV_HEADER: &str = "detector,image,keypoints1,keypoints2,matches,correct_1px,correct_2px,correct_3px,correct_4px,correct_5px,correct_6px,correct_7px,correct_8px,correct_9px,correct_10px,corner_error";
+pub const CSV_HEADER: &str = "detector,image,keypoints1,keypoints2,matches,correct_1px,correct_2px,correct_3px,correct_4px,correct_5px,correct_6px,correct_7px,correct_8px,correct_9px,correct_10px,corner_error,repeatability_3px,repeatability_overlap";
 
 /// One CSV line per pair.
 pub fn to_csv(rows: &[PairMatching]) -> String {
@@ -151,15 +165,18 @@ pub fn to_csv(rows: &[PairMatching]) -> String {
     for r in rows {
         let correct: Vec<String> = r.correct.iter().map(|c| c.to_string()).collect();
         let corner = r.corner_error.map_or(String::new(), |e| format!("{e:.3}"));
+        let overlap = r.repeatability_overlap.map_or(String::new(), |v| format!("{v:.4}"));
         out.push_str(&format!(
-            "{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{:.4},{}\n",
             r.detector,
             r.image,
             r.keypoints.0,
             r.keypoints.1,
             r.matches,
             correct.join(","),
-            corner
+            corner,
+            r.repeatability_3px,
+            overlap
         ));
     }
     out
@@ -178,6 +195,10 @@ pub struct MatchingSummary {
     pub mma: [f64; MMA_THRESHOLDS],
     /// Pairs whose homography is accurate at each of [`CORNER_THRESHOLDS`].
     pub accurate: [usize; 3],
+    /// Mean repeatability at 3 px.
+    pub repeatability_3px: f64,
+    /// Mean repeatability under the overlap criterion (over the pairs that have it).
+    pub repeatability_overlap: Option<f64>,
 }
 
 /// Summaries in the order detectors first appear.
@@ -200,6 +221,12 @@ pub fn summarize(rows: &[PairMatching]) -> Vec<MatchingSummary> {
                 mma: std::array::from_fn(|t| mine.iter().map(|r| r.mma(t + 1)).sum::<f64>() / n),
                 accurate: CORNER_THRESHOLDS
                     .map(|t| mine.iter().filter(|r| r.accurate(t)).count()),
+                repeatability_3px: mine.iter().map(|r| r.repeatability_3px).sum::<f64>() / n,
+                repeatability_overlap: {
+                    let known: Vec<f64> =
+                        mine.iter().filter_map(|r| r.repeatability_overlap).collect();
+                    (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64)
+                },
             }
         })
         .collect()
@@ -208,11 +235,11 @@ pub fn summarize(rows: &[PairMatching]) -> Vec<MatchingSummary> {
 /// The summary as a Markdown table.
 pub fn summary_table(summaries: &[MatchingSummary]) -> String {
     let mut out = String::from(
-        "| detector | correct @3px | MMA @1 | MMA @3 | MMA @5 | MMA @10 | H acc @1 | H acc @3 | H acc @5 |\n|---|---|---|---|---|---|---|---|---|\n",
+        "| detector | correct @3px | MMA @1 | MMA @3 | MMA @5 | MMA @10 | H acc @1 | H acc @3 | H acc @5 | rep. @3px | rep. overlap |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for s in summaries {
         out.push_str(&format!(
-            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {}/{} | {}/{} | {}/{} |\n",
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {}/{} | {}/{} | {}/{} | {:.3} | {} |\n",
             s.detector,
             s.correct_3px,
             s.mma[0],
@@ -224,7 +251,10 @@ pub fn summary_table(summaries: &[MatchingSummary]) -> String {
             s.accurate[1],
             s.pairs,
             s.accurate[2],
-            s.pairs
+            s.pairs,
+            s.repeatability_3px,
+            s.repeatability_overlap
+                .map_or("n/a".to_string(), |v| format!("{v:.3}"))
         ));
     }
     out
@@ -247,18 +277,21 @@ mod tests {
         let a = KeypointSet {
             points: points.clone(),
             descriptors: Descriptors::Float(descriptors.clone()),
+            scales: vec![2.0; 60],
         };
         let h = [1.0, 0.0, 5.0, 0.0, 1.0, -3.0, 0.0, 0.0, 1.0];
         let b = KeypointSet {
             points: points.iter().map(|&(x, y)| (x + 5.0, y - 3.0)).collect(),
             descriptors: Descriptors::Float(descriptors),
+            scales: vec![2.0; 60],
         };
-        let r = judge_pair("t", "p", &a, (300, 200), &b, &h, 0.8);
+        let r = judge_pair("t", "p", &a, (300, 200), &b, (300, 200), &h, (0.8, 10.0));
         assert_eq!((r.matches, r.correct[0]), (60, 60));
+        assert!(r.repeatability_3px == 1.0 && r.repeatability_overlap == Some(1.0));
         assert!(r.corner_error.unwrap() < 1e-6 && r.accurate(1.0));
         // The same points judged against a wrong map: matched, never correct.
         let wrong = [1.0, 0.0, 40.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-        let r = judge_pair("t", "p", &a, (300, 200), &b, &wrong, 0.8);
+        let r = judge_pair("t", "p", &a, (300, 200), &b, (300, 200), &wrong, (0.8, 10.0));
         assert_eq!((r.matches, r.correct[9]), (60, 0));
         assert!(!r.accurate(5.0) && r.mma(10) == 0.0);
     }

@@ -3,6 +3,7 @@
 
 pub mod homography;
 pub mod matching;
+pub mod overlap;
 pub mod peers;
 pub mod recall;
 pub mod repeatability;

@@ -146,6 +146,8 @@ impl PeerRunner {
                 KeypointSet {
                     points,
                     descriptors,
+                    // OpenCV's size is a diameter.
+                    scales: p.keypoints.iter().map(|k| k[3] / 2.0).collect(),
                 },
             );
         }

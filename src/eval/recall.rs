@@ -64,6 +64,9 @@ pub struct KeypointSet {
     pub points: Vec<(f64, f64)>,
     /// One descriptor per point.
     pub descriptors: Descriptors,
+    /// The scale of each point in pixels (steernav's σ_D, half an OpenCV keypoint's size), for
+    /// the region-overlap criterion; empty when unknown.
+    pub scales: Vec<f64>,
 }
 
 impl KeypointSet {
@@ -72,6 +75,7 @@ impl KeypointSet {
         Self {
             points: self.points.iter().take(n).copied().collect(),
             descriptors: self.descriptors.truncated(n),
+            scales: self.scales.iter().take(n).copied().collect(),
         }
     }
 }
@@ -145,6 +149,7 @@ mod tests {
         KeypointSet {
             points,
             descriptors: Descriptors::Float(d),
+            scales: Vec::new(),
         }
     }
 
@@ -171,16 +176,19 @@ mod tests {
         let a = KeypointSet {
             points: vec![(10.0, 10.0)],
             descriptors: Descriptors::Binary(vec![vec![0b1111_0000]]),
+            scales: Vec::new(),
         };
         let b = KeypointSet {
             points: vec![(10.0, 10.0), (40.0, 40.0)],
             descriptors: Descriptors::Binary(vec![vec![0b1111_0001], vec![0b1111_0010]]),
+            scales: Vec::new(),
         };
         let r = recall(&a, (50, 50), &b, (50, 50), &IDENTITY, 2.0, 0.0, 0.8);
         assert_eq!((r.true_positives, r.false_negatives), (0, 1));
         let b2 = KeypointSet {
             points: b.points.clone(),
             descriptors: Descriptors::Binary(vec![vec![0b1111_0000], vec![0b0000_1111]]),
+            scales: Vec::new(),
         };
         assert_eq!(
             recall(&a, (50, 50), &b2, (50, 50), &IDENTITY, 2.0, 0.0, 0.8).recall,

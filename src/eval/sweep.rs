@@ -71,6 +71,7 @@ pub fn steernav_set(detector: &Detector, frame: &Frame) -> Result<KeypointSet> {
         descriptors: Descriptors::Float(
             d.keypoints.iter().map(|k| k.descriptor.to_vec()).collect(),
         ),
+        scales: d.keypoints.iter().map(|k| k.scale as f64).collect(),
     })
 }
 
@@ -294,16 +295,18 @@ pub fn homography_sequence(
         .collect::<Result<_>>()?;
     let mut rows = Vec::new();
     let mut matching = Vec::new();
-    let mut judge_matching = |name: &str, k: usize, a: &KeypointSet, b: &KeypointSet, h| {
-        let (a, b) = (a.top(opts.max_keypoints), b.top(opts.max_keypoints));
-        let image = format!("{seq}/img{k}");
-        matching.push(judge_pair(name, &image, &a, s1, &b, h, opts.ratio));
-    };
+    let mut judge_matching =
+        |name: &str, k: usize, a: &KeypointSet, b: &KeypointSet, s2: (u32, u32), h| {
+            let (a, b) = (a.top(opts.max_keypoints), b.top(opts.max_keypoints));
+            let image = format!("{seq}/img{k}");
+            let settings = (opts.ratio, opts.margin);
+            matching.push(judge_pair(name, &image, &a, s1, &b, s2, h, settings));
+        };
     if let Some(det) = steernav {
         let a = steernav_set(det, &f1)?;
         for ((k, _, h), f) in others.iter().zip(&frames) {
             let b = steernav_set(det, f)?;
-            judge_matching("steernav", *k, &a, &b, h);
+            judge_matching("steernav", *k, &a, &b, (f.width, f.height), h);
             judge(
                 &mut rows,
                 "steernav",
@@ -328,7 +331,7 @@ pub fn homography_sequence(
             };
             for ((k, p, h), f) in others.iter().zip(&frames) {
                 if let Some(b) = found.get(&(p.display().to_string(), peer.clone())) {
-                    judge_matching(peer, *k, a, b, h);
+                    judge_matching(peer, *k, a, b, (f.width, f.height), h);
                     judge(
                         &mut rows,
                         peer,

@@ -76,21 +76,25 @@ pub struct DetectorConfig {
     pub basis: BasisOrder,
     /// Standard deviation of the Gaussian basis filters, in pixels. Default 1.0.
     pub basis_sigma: f32,
-    /// Number of detection scales S. Default 5.
+    /// Number of detection scales S. Default 11: σ_D from 1 to 32 px, five octaves, whose
+    /// coarse scales run on the image pyramid (see [`crate::features::harris::plan`]).
     pub scales: usize,
     /// Finest differentiation scale σ_D, in pixels. Default 1.0.
     pub sigma0: f32,
-    /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default 1.4.
+    /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default √2: two
+    /// scales per octave.
     pub scale_step: f32,
     /// Exponent p of the scale normalisation: every derivative plane D_k is multiplied by
     /// σ_e^p (σ_e the effective scale) before the structure tensor, so R scales with σ_e^(4p).
-    /// Default 2.0.
+    /// Default 3.0, the order of the D_k (third derivatives for the second-order basis): the
+    /// γ-normalisation under which R of a structure zoomed by s peaks at s times the scale,
+    /// so the suppression across scales picks each corner's characteristic scale. At 2 the
+    /// responses fell as σ⁻⁴ and 99% of the keypoints came from the finest scale.
     pub scale_normalization: f32,
     /// Exponent p_r of the normalisation used to rank keypoints against each other across
     /// scales: a member's response R_s counts as R_s·(σ_e,s/σ_e,0)^(4(p_r − p)) when its
     /// cluster's strength is taken. Scale selection (suppression across scales) keeps p; a
-    /// ranking with p_r < p favours the finest scales, whose keypoints sit where the corner
-    /// is rather than σ away from it. Default 0.5.
+    /// ranking with p_r < p favours the finest scales. Default 3.0 (= p: no scale is favoured).
     pub rank_normalization: f32,
     /// Integration-window ratio γ (σ_I = γ·σ_D, eq 7). Default 1.5.
     pub gamma: f32,
@@ -104,7 +108,8 @@ pub struct DetectorConfig {
     /// strongest response (taken in the response pass itself), so the detector keeps its
     /// keypoints on blurred, dim and low-contrast images, where responses fall with the fourth
     /// power of contrast. The threshold applied is max(threshold, relative_threshold ×
-    /// strongest). 0 turns it off. Default 0.005.
+    /// strongest). 0 turns it off. Default 0.001 (the strongest response of a frame now often
+    /// comes from a coarse scale, far above the fine corners).
     pub relative_threshold: f32,
     /// Kernels are truncated at this many standard deviations. Default 4.0: at 3σ the
     /// square support of the separable derivative kernels cut off enough tail to make their
@@ -137,15 +142,15 @@ impl Default for DetectorConfig {
             orientations: 12,
             basis: BasisOrder::Second,
             basis_sigma: 1.0,
-            scales: 5,
+            scales: 11,
             sigma0: 1.0,
-            scale_step: 1.4,
-            scale_normalization: 2.0,
-            rank_normalization: 0.5,
+            scale_step: std::f32::consts::SQRT_2,
+            scale_normalization: 3.0,
+            rank_normalization: 3.0,
             gamma: 1.5,
             harris_k: 0.04,
             threshold: 1e-12,
-            relative_threshold: 0.005,
+            relative_threshold: 0.001,
             truncate: 4.0,
             merge: MergeMode::Covariant,
             merge_radius: 2.0,
@@ -165,15 +170,19 @@ pub const MAX_ORIENTATIONS: usize = 180;
 pub const MAX_SCALES: usize = 16;
 
 impl DetectorConfig {
-    /// The configuration SLAM detects new landmarks with: 6 orientations and 3 scales instead
-    /// of 12 and 5. Landmarks start at the finest keypoints and are then followed by KLT and
-    /// templates, so the rotation sweep's extra orientations and coarse scales buy nothing
-    /// there; the detection costs 40% less and the accuracy of the SLAM runs held or improved
-    /// (CHANGELOG, issue 10). `steernav slam` starts from it; its flags still override.
+    /// The configuration SLAM detects new landmarks with: 6 orientations and 3 fine scales
+    /// (σ_D 1–2, ranked towards the finest) instead of 12 and 11. Landmarks start at the
+    /// finest keypoints, where the corner is, and are then followed by KLT and templates, so
+    /// the extra orientations and coarse scales buy nothing there; the detection costs much
+    /// less and the accuracy of the SLAM runs held or improved (CHANGELOG, issues 10 and 20).
+    /// `steernav slam` starts from it; its flags still override.
     pub fn tracking() -> Self {
         Self {
             orientations: 6,
             scales: 3,
+            scale_step: 1.4,
+            scale_normalization: 2.0,
+            rank_normalization: 0.5,
             relative_threshold: 0.001,
             descriptor: DescriptorKind::Entropy,
             ..Self::default()

@@ -13,7 +13,10 @@ use super::descriptor::describe;
 use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
-use super::steered::{describe_steered, GpuSteered};
+use super::harris::plan::{descriptor_level, level_blur};
+use super::pyramid::Pyramid;
+use super::steered::cpu::describe_steered_blurred;
+use super::steered::GpuSteered;
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
 use crate::features::harris::gpu::PendingFrame;
@@ -285,6 +288,50 @@ impl Detector {
         }
     }
 
+    /// Steered descriptors of `keypoints`, each read on its scale's pyramid level
+    /// ([`descriptor_level`]), on the GPU when the candidates came from it.
+    fn describe_steered(
+        &self,
+        frame: &Frame,
+        backend: &'static str,
+        keypoints: &mut [Keypoint],
+    ) -> Result<()> {
+        let (w, h) = (frame.width as usize, frame.height as usize);
+        let pyramid = Pyramid::new(&frame.gray, w, h, &self.plan.pyramid);
+        let top = pyramid.levels() as u32 - 1;
+        let on_level = |k: &Keypoint| {
+            let level = descriptor_level(k.scale).min(top);
+            let f = (1u32 << level) as f32;
+            let blur = level_blur(level) / f;
+            (level, (k.x / f, k.y / f, k.scale / f), blur)
+        };
+        match (&self.gpu_steered, backend) {
+            (Some(g), "gpu") => {
+                for level in 0..=top {
+                    let chosen: Vec<usize> = (0..keypoints.len())
+                        .filter(|&i| on_level(&keypoints[i]).0 == level)
+                        .collect();
+                    if chosen.is_empty() {
+                        continue;
+                    }
+                    let points: Vec<_> = chosen.iter().map(|&i| on_level(&keypoints[i]).1).collect();
+                    let blur = on_level(&keypoints[chosen[0]]).2;
+                    let (plane, lw, lh) = pyramid.level(level);
+                    let described = g.describe_blurred(plane, lw as u32, lh as u32, &points, blur)?;
+                    for (&i, d) in chosen.iter().zip(described) {
+                        keypoints[i].descriptor = d.values;
+                    }
+                }
+            }
+            _ => keypoints.par_iter_mut().for_each(|k| {
+                let (level, point, blur) = on_level(k);
+                let (plane, lw, lh) = pyramid.level(level);
+                k.descriptor = describe_steered_blurred(plane, lw, lh, point, blur).values;
+            }),
+        }
+        Ok(())
+    }
+
     /// Merge and descriptors after the Harris stage; `t0` is when the frame's Harris began.
     fn complete(&self, frame: &Frame, run: HarrisRun, t0: Instant) -> Result<Detection> {
         let HarrisRun {
@@ -302,7 +349,6 @@ impl Detector {
             scale_histogram[c.scale_index] += 1;
         }
         let kind = self.plan.config.descriptor;
-        let (w, h) = (frame.width as usize, frame.height as usize);
         let mut keypoints: Vec<Keypoint> = clusters
             .iter()
             .map(|c| Keypoint {
@@ -314,26 +360,13 @@ impl Detector {
                 descriptor: Vec::new(),
             })
             .collect();
-        // Descriptors on the backend that found the candidates.
-        let on_gpu = match (&self.gpu_steered, kind, backend) {
-            (Some(g), DescriptorKind::Steered, "gpu") => {
-                let points: Vec<_> = keypoints.iter().map(|k| (k.x, k.y, k.scale)).collect();
-                let described = g.describe(&frame.gray, frame.width, frame.height, &points)?;
-                for (k, d) in keypoints.iter_mut().zip(described) {
-                    k.descriptor = d.values;
-                }
-                true
-            }
-            _ => false,
-        };
-        if !on_gpu {
+        // Descriptors on the backend that found the candidates; a steered descriptor is read
+        // on the pyramid level where its window has a few pixels per cell.
+        if kind == DescriptorKind::Steered {
+            self.describe_steered(frame, backend, &mut keypoints)?;
+        } else {
             keypoints.par_iter_mut().for_each(|k| {
-                k.descriptor = match kind {
-                    DescriptorKind::Steered => {
-                        describe_steered(&frame.gray, w, h, k.x, k.y, k.scale).values
-                    }
-                    DescriptorKind::Entropy => describe(frame, k.x, k.y).to_vec(),
-                };
+                k.descriptor = describe(frame, k.x, k.y).to_vec();
             });
         }
         let t3 = Instant::now();

@@ -528,7 +528,11 @@ mod tests {
         // A coarse corner with the larger scale-normalised response and a fine one.
         let mut c = vec![cand(10.0, 10.0, 2.0, 2, 0), cand(40.0, 40.0, 1.5, 0, 0)];
         crate::features::sort_candidates(&mut c);
-        let mut cfg = DetectorConfig::default();
+        let mut cfg = DetectorConfig {
+            scale_normalization: 2.0,
+            rank_normalization: 0.5,
+            ..DetectorConfig::default()
+        };
         let m = merge(&c, &HarrisPlan::new(&cfg));
         // p_r = 0.5 < p = 2: the coarse response is weighted by (σ_e2/σ_e0)^(−6) < 0.75.
         assert_eq!((m[0].x, m[0].response), (40.0, 1.5));
@@ -538,6 +542,35 @@ mod tests {
         cfg.rank_normalization = cfg.scale_normalization;
         let m = merge(&c, &HarrisPlan::new(&cfg));
         assert_eq!((m[0].x, m[1].x), (10.0, 40.0));
+    }
+
+    #[test]
+    fn the_merge_radius_follows_the_scale_and_far_scales_stay_apart() {
+        let plan = HarrisPlan::new(&DetectorConfig::default());
+        let r = plan.config.merge_radius;
+        let s8 = plan.scales.iter().position(|s| s.sigma_d >= 7.9).unwrap();
+        // Three orientations of a coarse corner spread over 3r (σ_D = 8: radius 8r) become
+        // one keypoint; the same spread at σ_D = 1 stays three.
+        let spread = |s: usize| {
+            let mut c = vec![
+                cand(100.0, 100.0, 3.0, s, 0),
+                cand(100.0 + 1.5 * r, 100.0, 2.0, s, 3),
+                cand(100.0, 100.0 + 1.5 * r, 1.0, s, 6),
+            ];
+            crate::features::sort_candidates(&mut c);
+            merge(&c, &plan).len()
+        };
+        assert_eq!((spread(s8), spread(0)), (1, 3));
+        // A fine corner on top of a coarse one, two scales apart: both survive.
+        let mut c = vec![cand(50.0, 50.0, 2.0, 0, 0), cand(50.5, 50.0, 1.0, 2, 0)];
+        crate::features::sort_candidates(&mut c);
+        let m = merge(&c, &plan);
+        assert_eq!(m.len(), 2);
+        assert_eq!((m[0].scale_index, m[1].scale_index), (0, 2));
+        // Adjacent scales at the same place merge.
+        let mut c = vec![cand(50.0, 50.0, 2.0, 0, 0), cand(50.5, 50.0, 1.0, 1, 0)];
+        crate::features::sort_candidates(&mut c);
+        assert_eq!(merge(&c, &plan).len(), 1);
     }
 
     #[test]

@@ -523,7 +523,7 @@ mod tests {
         let plan = HarrisPlan::new(&DetectorConfig::default());
         let whole = CpuHarris::new(plan.clone());
         let (expected, t_expected, _) = whole.candidates(&image.gray, w, h);
-        assert!(expected.len() > 100, "{}", expected.len());
+        assert!(expected.len() >= 80, "{}", expected.len());
         // Budgets from the smallest band (4 × the coarsest step, many bands) upwards; a band
         // edge then falls on every kind of row.
         for budget in [1, 40_000, 150_000, 400_000] {

@@ -10,7 +10,7 @@
 //! σ_e: each octave then costs about a quarter of the one below it, and the response grids
 //! (and so every later stage) are those of the full-resolution computation.
 
-use crate::features::config::DetectorConfig;
+use crate::features::config::{DescriptorKind, DetectorConfig};
 use crate::features::steerable::{orientations, steering_coefficients, Kernel1d, Separable};
 
 /// Everything one detection scale needs.
@@ -56,6 +56,20 @@ pub const LEVEL_MIN_SIGMA: f32 = 2.0;
 pub fn pyramid_level(sigma_e: f32, step: u32) -> u32 {
     let mut level = 0;
     while (2u32 << level) <= step && sigma_e / (2u32 << level) as f32 >= LEVEL_MIN_SIGMA {
+        level += 1;
+    }
+    level
+}
+
+/// The steered descriptor of a keypoint is read on the coarsest level where its σ_D spans at
+/// least this many level pixels: a cell (5σ_D) then spans 5–10 pixels at any scale, so a
+/// coarse keypoint costs what a fine one does.
+pub const DESCRIPTOR_MIN_SIGMA: f32 = 1.0;
+
+/// The pyramid level the steered descriptor of a keypoint of scale `sigma_d` is read on.
+pub fn descriptor_level(sigma_d: f32) -> u32 {
+    let mut level = 0;
+    while level < 16 && sigma_d / (2u32 << level) as f32 >= DESCRIPTOR_MIN_SIGMA {
         level += 1;
     }
     level
@@ -189,7 +203,20 @@ impl HarrisPlan {
                 }
             })
             .collect();
-        let levels = scales.iter().map(|s| s.level).max().unwrap_or(0);
+        let descriptor_levels = match config.descriptor {
+            DescriptorKind::Steered => scales
+                .iter()
+                .map(|s| descriptor_level(s.sigma_d))
+                .max()
+                .unwrap_or(0),
+            DescriptorKind::Entropy => 0,
+        };
+        let levels = scales
+            .iter()
+            .map(|s| s.level)
+            .max()
+            .unwrap_or(0)
+            .max(descriptor_levels);
         let pyramid = (0..levels)
             .map(|l| {
                 // From the level's own blur to twice PYRAMID_BLUR, in the level's pixels.

@@ -110,9 +110,21 @@ pub fn describe_steered(
     y: f32,
     sigma: f32,
 ) -> Steered {
+    describe_steered_blurred(gray, width, height, (x, y, sigma), 0.0)
+}
+
+/// [`describe_steered`] on a plane that already carries a Gaussian blur of `prior_blur`
+/// pixels (a pyramid level): the patch is smoothed by what is missing to reach `sigma`.
+pub fn describe_steered_blurred(
+    gray: &[f32],
+    width: usize,
+    height: usize,
+    (x, y, sigma): (f32, f32, f32),
+    prior_blur: f32,
+) -> Steered {
     let cell = CELL_SIGMAS * sigma;
     let window = CELLS as f32 * cell;
-    let (half, kernel) = patch_geometry(sigma);
+    let (half, kernel) = patch_geometry(sigma, prior_blur);
     let patch = Patch::around(gray, width, height, (x, y), half, &kernel);
     let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
     let orientation = dominant_orientation(&patch, (&dxs, &dys), ORIENTATION_SIGMAS * sigma);

@@ -110,6 +110,19 @@ impl GpuSteered {
         height: u32,
         points: &[(f32, f32, f32)],
     ) -> Result<Vec<Steered>> {
+        self.describe_blurred(gray, width, height, points, 0.0)
+    }
+
+    /// [`Self::describe`] on a plane that already carries a Gaussian blur of `prior_blur`
+    /// pixels (a pyramid level), as [`super::cpu::describe_steered_blurred`].
+    pub fn describe_blurred(
+        &self,
+        gray: &[f32],
+        width: u32,
+        height: u32,
+        points: &[(f32, f32, f32)],
+        prior_blur: f32,
+    ) -> Result<Vec<Steered>> {
         let (w, h) = (width as usize, height as usize);
         let mut out: Vec<Option<Steered>> = vec![None; points.len()];
         // Plan: kernels deduplicated by σ (a handful of scales), scratch per keypoint.
@@ -117,10 +130,16 @@ impl GpuSteered {
         let mut kernels: Vec<(f32, u32, u32)> = Vec::new();
         let mut planned: Vec<Planned> = Vec::new();
         for (slot, &(x, y, sigma)) in points.iter().enumerate() {
-            let (half, kernel) = patch_geometry(sigma);
+            let (half, kernel) = patch_geometry(sigma, prior_blur);
             let side = 2 * half + 1;
             if side * side > MAX_WINDOW_PIXELS {
-                out[slot] = Some(super::describe_steered(gray, w, h, x, y, sigma));
+                out[slot] = Some(super::cpu::describe_steered_blurred(
+                    gray,
+                    w,
+                    h,
+                    (x, y, sigma),
+                    prior_blur,
+                ));
                 continue;
             }
             let r = kernel.radius();

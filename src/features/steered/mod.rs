@@ -46,16 +46,21 @@ pub(crate) const CLIP: f32 = 0.2;
 /// Gaussian smoothing kernels are truncated at this many σ.
 pub(crate) const SMOOTH_TRUNCATE: f32 = 3.0;
 
-/// The patch geometry both twins use for a keypoint of scale `sigma`: the half-side of the
-/// gradient window (pixels) and the smoothing kernel.
-pub(crate) fn patch_geometry(sigma: f32) -> (usize, Kernel1d) {
+/// The patch geometry both twins use for a keypoint of scale `sigma` on a plane that already
+/// carries a blur of `prior_blur` (pixels; a pyramid level's): the half-side of the gradient
+/// window (pixels) and the kernel that brings the blur up to `sigma`.
+pub(crate) fn patch_geometry(sigma: f32, prior_blur: f32) -> (usize, Kernel1d) {
     let window = CELLS as f32 * CELL_SIGMAS * sigma;
     // The rotated window's corners reach half its diagonal; the orientation window 3σ.
     let reach = (0.5 * window * std::f32::consts::SQRT_2).max(3.0 * ORIENTATION_SIGMAS * sigma);
     let half = reach.ceil() as usize + 1;
     (
         half,
-        Kernel1d::gaussian_derivative(sigma, 0, SMOOTH_TRUNCATE),
+        Kernel1d::gaussian_derivative(
+            (sigma * sigma - prior_blur * prior_blur).max(0.25).sqrt(),
+            0,
+            SMOOTH_TRUNCATE,
+        ),
     )
 }
 
