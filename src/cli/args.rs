@@ -7,7 +7,7 @@ use std::str::FromStr;
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::Args;
-use steernav::features::{BasisOrder, DescriptorKind, MergeMode};
+use steernav::features::{BasisOrder, DescriptorKind, MergeMode, Spread};
 use steernav::settings::Settings;
 use steernav::{Backend, Detector, DetectorConfig};
 
@@ -103,6 +103,10 @@ pub struct DetectorFlags {
     /// Keep at most K keypoints, the strongest [default: 500].
     #[arg(long, value_name = "K")]
     pub max_keypoints: Option<usize>,
+    /// How the K keypoints are chosen: strongest, or anms (adaptive non-maximal suppression
+    /// within an octave, which spreads them over the image) [default: strongest].
+    #[arg(long, value_parser = choice::<Spread>(Spread::NAMES))]
+    pub spread: Option<Spread>,
     /// Order of the steered Gaussian-derivative basis [default: second].
     #[arg(long, value_parser = choice::<BasisOrder>(BasisOrder::NAMES))]
     pub basis: Option<BasisOrder>,
@@ -133,6 +137,9 @@ impl DetectorFlags {
         }
         if let Some(v) = self.max_keypoints {
             cfg.max_keypoints = v;
+        }
+        if let Some(v) = self.spread {
+            cfg.spread = v;
         }
         if let Some(v) = self.basis {
             cfg.basis = v;

@@ -31,15 +31,37 @@ impl BasisOrder {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum MergeMode {
-    /// Two-stage merge covariant with the image: k-means seeded from a radius suppression of
-    /// the strongest candidates and confined to their neighbourhoods, then close means merged.
+    /// Two-stage merge covariant with the image and its scale: k-means seeded from a radius
+    /// suppression of the strongest candidates and confined to their neighbourhoods, then
+    /// close means merged, both with radii proportional to σ_D and only between adjacent
+    /// scales, so a fine and a coarse keypoint at the same place both survive.
     Covariant,
+    /// The same two stages with the radius in pixels at every scale and across all scales
+    /// (the merge before octaves): each place gives one keypoint. SLAM's tracking preset keeps
+    /// it, as its landmarks start at the finest keypoints.
+    Pixel,
     /// The literal reading of the paper: k-means++ with random (seeded) starts over all
     /// candidates, k = max_keypoints, then close means merged. Kept for comparison.
     KmeansPp,
 }
 
-named_variants!(MergeMode { Covariant => "covariant", KmeansPp => "kmeans-pp" });
+named_variants!(MergeMode { Covariant => "covariant", Pixel => "pixel", KmeansPp => "kmeans-pp" });
+
+/// How the `max_keypoints` kept are chosen among the merged clusters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Spread {
+    /// The strongest (by rank).
+    Strongest,
+    /// Adaptive non-maximal suppression (Brown, Szeliski and Winder 2005), within an octave:
+    /// each cluster's radius is its distance to the nearest cluster of a scale at most an
+    /// octave away that is clearly stronger (by 1/0.9); the largest radii are kept, so the
+    /// keypoints spread over the image while a coarse structure never suppresses the fine
+    /// corners on it.
+    Anms,
+}
+
+named_variants!(Spread { Strongest => "strongest", Anms => "anms" });
 
 /// Which descriptor each keypoint carries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,7 +116,9 @@ pub struct DetectorConfig {
     /// Exponent p_r of the normalisation used to rank keypoints against each other across
     /// scales: a member's response R_s counts as R_s·(σ_e,s/σ_e,0)^(4(p_r − p)) when its
     /// cluster's strength is taken. Scale selection (suppression across scales) keeps p; a
-    /// ranking with p_r < p favours the finest scales. Default 3.0 (= p: no scale is favoured).
+    /// ranking with p_r < p favours the finest scales. Default 2.75: a slight lean to the
+    /// fine scales, whose keypoints survive the blur of a resampled (rotated) view better;
+    /// p_r = p gives more coarse keypoints and loses rotation repeatability (docs/EVALUATION.md).
     pub rank_normalization: f32,
     /// Integration-window ratio γ (σ_I = γ·σ_D, eq 7). Default 1.5.
     pub gamma: f32,
@@ -121,6 +145,8 @@ pub struct DetectorConfig {
     pub merge_radius: f32,
     /// Keep at most this many keypoints, the strongest. Default 500.
     pub max_keypoints: usize,
+    /// How the kept keypoints are chosen. Default strongest.
+    pub spread: Spread,
     /// Capacity of the candidate list read back from the GPU; when more candidates survive,
     /// both backends raise the threshold ×4 until they fit. Default 131072.
     pub candidate_capacity: usize,
@@ -146,7 +172,7 @@ impl Default for DetectorConfig {
             sigma0: 1.0,
             scale_step: std::f32::consts::SQRT_2,
             scale_normalization: 3.0,
-            rank_normalization: 3.0,
+            rank_normalization: 2.75,
             gamma: 1.5,
             harris_k: 0.04,
             threshold: 1e-12,
@@ -155,6 +181,7 @@ impl Default for DetectorConfig {
             merge: MergeMode::Covariant,
             merge_radius: 2.0,
             max_keypoints: 500,
+            spread: Spread::Strongest,
             candidate_capacity: 1 << 17,
             seed: 7,
             descriptor: DescriptorKind::Steered,
@@ -183,6 +210,7 @@ impl DetectorConfig {
             scale_step: 1.4,
             scale_normalization: 2.0,
             rank_normalization: 0.5,
+            merge: MergeMode::Pixel,
             relative_threshold: 0.001,
             descriptor: DescriptorKind::Entropy,
             ..Self::default()

@@ -14,7 +14,7 @@
 
 use rayon::prelude::*;
 
-use super::config::MergeMode;
+use super::config::{MergeMode, Spread};
 use super::harris::HarrisPlan;
 use super::Candidate;
 
@@ -86,6 +86,7 @@ impl Stats {
         for (a, b) in self.by_scale.iter_mut().zip(&o.by_scale) {
             *a += b;
         }
+
         for (a, b) in self.by_orientation.iter_mut().zip(&o.by_orientation) {
             *a += b;
         }
@@ -181,10 +182,57 @@ pub fn merge(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Cluster> {
     }
     let cfg = &plan.config;
     let stats = match cfg.merge {
-        MergeMode::Covariant => covariant_stage1(candidates, plan),
+        MergeMode::Covariant | MergeMode::Pixel => covariant_stage1(candidates, plan),
         MergeMode::KmeansPp => kmeans_pp_stage1(candidates, plan),
     };
-    merge_close(stats, plan)
+    match cfg.spread {
+        Spread::Strongest => merge_close(stats, plan, cfg.max_keypoints),
+        Spread::Anms => {
+            let all = merge_close(stats, plan, usize::MAX);
+            spread_out(all, plan)
+        }
+    }
+}
+
+/// Fraction of a cluster's strength another must exceed to suppress it in [`spread_out`].
+const ANMS_ROBUSTNESS: f32 = 0.9;
+
+/// Adaptive non-maximal suppression within an octave ([`Spread::Anms`]): of `clusters`
+/// (strongest first), the `max_keypoints` with the largest suppression radii, still in rank
+/// order.
+fn spread_out(clusters: Vec<Cluster>, plan: &HarrisPlan) -> Vec<Cluster> {
+    let limit = plan.config.max_keypoints;
+    if clusters.len() <= limit {
+        return clusters;
+    }
+    let octave = |a: usize, b: usize| {
+        let ratio = plan.scales[a].sigma_d / plan.scales[b].sigma_d;
+        (0.5..=2.0).contains(&ratio)
+    };
+    let radii: Vec<f32> = (0..clusters.len())
+        .into_par_iter()
+        .map(|i| {
+            let c = &clusters[i];
+            clusters[..i]
+                .iter()
+                .filter(|o| {
+                    c.strength < ANMS_ROBUSTNESS * o.strength && octave(c.scale_index, o.scale_index)
+                })
+                .map(|o| dist2((c.x, c.y), (o.x, o.y)))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..clusters.len()).collect();
+    order.sort_by(|&a, &b| radii[b].total_cmp(&radii[a]).then(a.cmp(&b)));
+    let mut keep = vec![false; clusters.len()];
+    for &i in &order[..limit] {
+        keep[i] = true;
+    }
+    clusters
+        .into_iter()
+        .zip(keep)
+        .filter_map(|(c, k)| k.then_some(c))
+        .collect()
 }
 
 /// Points grouped by detection scale, one [`Grid`] per scale, for the scale-covariant radius
@@ -193,11 +241,14 @@ pub fn merge(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Cluster> {
 struct ScaleGrids {
     /// Per scale: the grid and the global index of each of its points.
     grids: Vec<Option<(Grid, Vec<usize>)>>,
+    /// Scales on either side a query reaches.
+    span: usize,
 }
 
 impl ScaleGrids {
     /// `cell(s)` must be at least the largest radius a query of scale s ± 1 asks at scale s.
-    fn new(points: &[(f32, f32)], scales: &[usize], count: usize, cell: impl Fn(usize) -> f32) -> Self {
+    fn new(points: &[(f32, f32)], scales: &[usize], plan: &HarrisPlan, cell: impl Fn(usize) -> f32) -> Self {
+        let count = plan.scales.len();
         let grids = (0..count)
             .map(|s| {
                 let members: Vec<usize> = (0..points.len()).filter(|&i| scales[i] == s).collect();
@@ -208,13 +259,18 @@ impl ScaleGrids {
                 Some((Grid::new(&pts, cell(s)), members))
             })
             .collect();
-        Self { grids }
+        let span = match plan.config.merge {
+            MergeMode::Pixel => count,
+            _ => 1,
+        };
+        Self { grids, span }
     }
 
-    /// Global indices of the points of scales s − 1 … s + 1 in the cells around `p`.
+    /// Global indices of the points of scales s − span … s + span in the cells around `p`.
     fn near(&self, p: (f32, f32), s: usize) -> impl Iterator<Item = usize> + '_ {
         let last = self.grids.len() - 1;
-        (s.saturating_sub(1)..=(s + 1).min(last)).flat_map(move |t| {
+        let span = self.span;
+        (s.saturating_sub(span)..=(s.saturating_add(span)).min(last)).flat_map(move |t| {
             self.grids[t]
                 .iter()
                 .flat_map(move |(g, members)| g.near(p).map(move |k| members[k]))
@@ -222,10 +278,13 @@ impl ScaleGrids {
     }
 }
 
-/// The merge's radius multiplier at each scale: σ_D(s) / σ_D(0).
+/// The merge's radius multiplier at each scale: σ_D(s) / σ_D(0), or 1 for the pixel merge.
 fn radius_factors(plan: &HarrisPlan) -> Vec<f32> {
     let s0 = plan.scales[0].sigma_d;
-    plan.scales.iter().map(|s| s.sigma_d / s0).collect()
+    match plan.config.merge {
+        MergeMode::Pixel => vec![1.0; plan.scales.len()],
+        _ => plan.scales.iter().map(|s| s.sigma_d / s0).collect(),
+    }
 }
 
 /// Stage 1, covariant: radius-suppression seeds, then confined Lloyd iterations, both with
@@ -242,7 +301,7 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let pair_radius = |a: usize, b: usize| r * factor[a].max(factor[b]);
     // Radius suppression, strongest first: a candidate becomes a seed unless a seed of an
     // adjacent scale lies within the pair's radius.
-    let grids = ScaleGrids::new(&points, &scale_of, ns, |s| r * factor[s] * spread);
+    let grids = ScaleGrids::new(&points, &scale_of, plan, |s| r * factor[s] * spread);
     let mut is_seed = vec![false; points.len()];
     let mut seeds: Vec<usize> = Vec::new();
     for (i, &p) in points.iter().enumerate() {
@@ -265,7 +324,7 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         let seed_points: Vec<(f32, f32)> = seeds.iter().map(|&i| points[i]).collect();
         let seed_scales: Vec<usize> = seeds.iter().map(|&i| scale_of[i]).collect();
         let seed_grids =
-            ScaleGrids::new(&seed_points, &seed_scales, ns, |s| 2.0 * reach * r * factor[s] * spread);
+            ScaleGrids::new(&seed_points, &seed_scales, plan, |s| 2.0 * reach * r * factor[s] * spread);
         (0..points.len())
             .filter(|&i| {
                 seed_grids.near(points[i], scale_of[i]).any(|k| {
@@ -289,7 +348,7 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let mut centres: Vec<(f32, f32)> = seed_at.iter().map(|&k| points[k]).collect();
     let mut assignment: Vec<Option<usize>> = Vec::new();
     for iteration in 0..3 {
-        let grid = ScaleGrids::new(&centres, &centre_scales, ns, |s| reach * r * factor[s] * spread);
+        let grid = ScaleGrids::new(&centres, &centre_scales, plan, |s| reach * r * factor[s] * spread);
         assignment = points
             .par_iter()
             .zip(&scale_of)
@@ -417,8 +476,8 @@ fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
 /// Stage 2: strongest first, each cluster absorbs the weaker ones of an adjacent scale whose
 /// means lie within r times the larger scale factor. Clusters come out strongest first (an
 /// absorbed cluster is weaker than its absorber), so the loop stops at `limit`.
-fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan) -> Vec<Cluster> {
-    let (r, limit) = (plan.config.merge_radius, plan.config.max_keypoints);
+fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan, limit: usize) -> Vec<Cluster> {
+    let r = plan.config.merge_radius;
     let factor = radius_factors(plan);
     stats.sort_by(|a, b| {
         let (ca, cb) = (a.centre(), b.centre());
@@ -430,7 +489,7 @@ fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan) -> Vec<Cluster> {
     let centres: Vec<(f32, f32)> = stats.iter().map(Stats::centre).collect();
     let scales: Vec<usize> = stats.iter().map(|s| argmax(&s.by_scale)).collect();
     let spread = plan.config.scale_step;
-    let grid = ScaleGrids::new(&centres, &scales, plan.scales.len(), |s| r * factor[s] * spread);
+    let grid = ScaleGrids::new(&centres, &scales, plan, |s| r * factor[s] * spread);
     let mut absorbed = vec![false; stats.len()];
     let mut out = Vec::new();
     for i in 0..stats.len() {
@@ -453,13 +512,14 @@ fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan) -> Vec<Cluster> {
             absorbed[j] = true;
             total.absorb(&stats[j]);
         }
+        let scale_index = argmax(&total.by_scale);
         let (x, y) = total.centre();
         out.push(Cluster {
             x,
             y,
             response: total.max,
             strength: total.strength,
-            scale_index: argmax(&total.by_scale),
+            scale_index,
             orientation_index: argmax(&total.by_orientation),
             members: total.count,
         });
@@ -571,6 +631,29 @@ mod tests {
         let mut c = vec![cand(50.0, 50.0, 2.0, 0, 0), cand(50.5, 50.0, 1.0, 1, 0)];
         crate::features::sort_candidates(&mut c);
         assert_eq!(merge(&c, &plan).len(), 1);
+    }
+
+    #[test]
+    fn anms_spreads_the_keypoints_over_the_image() {
+        // A tight block of strong corners on the left, weaker ones spread on the right.
+        let mut c: Vec<Candidate> = (0..40)
+            .map(|i| cand(10.0 + (i % 8) as f32 * 5.0, 10.0 + (i / 8) as f32 * 5.0, 10.0 + i as f32, 0, 0))
+            .chain((0..10).map(|i| cand(200.0 + i as f32 * 30.0, 100.0, 1.0 + i as f32 * 0.01, 0, 0)))
+            .collect();
+        crate::features::sort_candidates(&mut c);
+        let mut cfg = DetectorConfig {
+            max_keypoints: 20,
+            ..DetectorConfig::default()
+        };
+        let right = |m: &[Cluster]| m.iter().filter(|k| k.x >= 200.0).count();
+        let strongest = merge(&c, &HarrisPlan::new(&cfg));
+        assert_eq!((strongest.len(), right(&strongest)), (20, 0));
+        cfg.spread = Spread::Anms;
+        let spread = merge(&c, &HarrisPlan::new(&cfg));
+        assert_eq!(spread.len(), 20);
+        assert!(right(&spread) >= 9, "{}", right(&spread));
+        // Still in rank order.
+        assert!(spread.windows(2).all(|w| w[0].strength >= w[1].strength));
     }
 
     #[test]

@@ -15,7 +15,7 @@ pub mod steered;
 
 use serde::{Deserialize, Serialize};
 
-pub use config::{BasisOrder, DescriptorKind, DetectorConfig, MergeMode};
+pub use config::{BasisOrder, DescriptorKind, DetectorConfig, MergeMode, Spread};
 pub use detector::{Backend, Detection, Detector, HarrisRun};
 
 crate::gpu::layout::gpu_struct! {

@@ -109,10 +109,13 @@ impl ScalePlan {
     }
 }
 
+/// A scale's grid step is the largest power of two that leaves at least this many steps in σ_I.
+pub const GRID_SIGMAS: f32 = 1.4;
+
 /// The grid step of a scale with integration scale `sigma_i`.
 pub fn grid_step(sigma_i: f32) -> u32 {
     let mut step = 1u32;
-    while sigma_i / (2 * step) as f32 >= 1.4 && step < 64 {
+    while sigma_i / (2 * step) as f32 >= GRID_SIGMAS && step < 64 {
         step *= 2;
     }
     step
