@@ -70,8 +70,12 @@ fn cpu_keypoints_survive_rotation() {
     let r90 = rotation90(&det, &frame);
     let r45 = rotation(&det, &frame, 45.0);
     eprintln!("repeatability: 90° {r90:.3}, 45° {r45:.3}");
-    assert!(r90 >= 0.95, "90°: {r90}");
-    assert!(r45 >= 0.85, "45°: {r45}");
+    // Measured 0.962 and 0.815 with the octave defaults (issue 20; 1.0 and 0.9 before, when
+    // almost every keypoint came from σ_D = 1). Coarse scales are sampled on grids anchored at
+    // the image origin, which a rotation does not preserve, and the bilinear resampling of the
+    // turned view blurs the finest structures, shifting their scale and rank.
+    assert!(r90 >= 0.93, "90°: {r90}");
+    assert!(r45 >= 0.78, "45°: {r45}");
 }
 
 #[test]
@@ -81,5 +85,6 @@ fn gpu_keypoints_survive_exact_rotation() {
     }
     let det = Detector::new(&DetectorConfig::default(), Backend::Gpu).unwrap();
     let r90 = rotation90(&det, &textured_scene(320, 240, 12));
-    assert!(r90 >= 0.95, "90°: {r90}");
+    // Measured 0.946 (see cpu_keypoints_survive_rotation).
+    assert!(r90 >= 0.92, "90°: {r90}");
 }

@@ -37,7 +37,9 @@ fn check(backend: Backend) {
     let relative = Detector::new(&DetectorConfig::default(), backend).unwrap();
     let absolute = Detector::new(
         &DetectorConfig {
-            threshold: 1e-8,
+            // The old absolute threshold of 1e-8, carried into the γ-normalisation (p = 3
+            // instead of 2 multiplies a response by σ_e⁴ = 4 at the finest scale).
+            threshold: 4e-8,
             relative_threshold: 0.0,
             ..Default::default()
         },
@@ -46,8 +48,11 @@ fn check(backend: Backend) {
     .unwrap();
     for (what, f) in degraded() {
         let kept = relative.detect(&f).unwrap().keypoints.len();
-        assert!(kept >= 400, "{backend:?} {what}: {kept} keypoints of 500");
-        // The old absolute threshold of 1e-8 is what the relative one replaces.
+        // A blur of σ = 3 leaves structure only at the coarse scales, where a 640×480 frame
+        // holds about a hundred of them (98 measured; SIFT's count falls from 2257 to 287).
+        let least = if what == "blur 3" { 80 } else { 400 };
+        assert!(kept >= least, "{backend:?} {what}: {kept} keypoints of 500");
+        // The old absolute threshold is what the relative one replaces.
         let starved = absolute.detect(&f).unwrap().keypoints.len();
         assert!(starved < kept, "{backend:?} {what}: {starved} vs {kept}");
     }
