@@ -172,7 +172,9 @@ pub fn mma_figure(
             .draw_series(LineSeries::new(pts, colour.stroke_width(width)))
             .map_err(|e| err(e.to_string()))?
             .label(s.detector.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+            });
     }
     chart
         .configure_series_labels()

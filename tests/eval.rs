@@ -92,7 +92,11 @@ fn homography_sequence_in_the_oxford_layout() {
     assert_eq!(rows.len(), 3);
     // The rotated view matches, and its RANSAC homography is the true one at the corners.
     assert_eq!(matching.len(), 1);
-    assert!(matching[0].matches >= 50 && matching[0].mma(3) >= 0.8, "{:?}", matching[0]);
+    assert!(
+        matching[0].matches >= 50 && matching[0].mma(3) >= 0.8,
+        "{:?}",
+        matching[0]
+    );
     assert!(matching[0].accurate(3.0), "{:?}", matching[0]);
     let at2 = rows.iter().find(|r| r.eps == 2.0).unwrap();
     assert_eq!(at2.angle, 2.0);

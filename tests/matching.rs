@@ -55,7 +55,10 @@ fn matches_on_a_rotated_pair_are_correct_under_the_known_map() {
     let h = v.model.unwrap();
     let truth = steernav::eval::homography::from_affine(&map);
     let error = corner_error(&h, &truth, (400, 300)).unwrap();
-    assert!(error <= 1.0, "corners {error:.2} px off: H {h:?} vs {map:?}");
+    assert!(
+        error <= 1.0,
+        "corners {error:.2} px off: H {h:?} vs {map:?}"
+    );
 }
 
 #[test]

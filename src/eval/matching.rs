@@ -136,7 +136,8 @@ pub fn judge_pair(
         matches: matches.len(),
         correct,
         corner_error,
-        repeatability_3px: repeatability(&a.points, size_a, &b.points, size_b, h, 3.0, margin).ratio,
+        repeatability_3px: repeatability(&a.points, size_a, &b.points, size_b, h, 3.0, margin)
+            .ratio,
         repeatability_overlap: overlap_repeatability(a, size_a, b, size_b, h, margin)
             .map(|r| r.ratio),
     }
@@ -165,7 +166,9 @@ pub fn to_csv(rows: &[PairMatching]) -> String {
     for r in rows {
         let correct: Vec<String> = r.correct.iter().map(|c| c.to_string()).collect();
         let corner = r.corner_error.map_or(String::new(), |e| format!("{e:.3}"));
-        let overlap = r.repeatability_overlap.map_or(String::new(), |v| format!("{v:.4}"));
+        let overlap = r
+            .repeatability_overlap
+            .map_or(String::new(), |v| format!("{v:.4}"));
         out.push_str(&format!(
             "{},{},{},{},{},{},{},{:.4},{}\n",
             r.detector,
@@ -219,12 +222,13 @@ pub fn summarize(rows: &[PairMatching]) -> Vec<MatchingSummary> {
                 pairs: mine.len(),
                 correct_3px: mine.iter().map(|r| r.correct[2]).sum(),
                 mma: std::array::from_fn(|t| mine.iter().map(|r| r.mma(t + 1)).sum::<f64>() / n),
-                accurate: CORNER_THRESHOLDS
-                    .map(|t| mine.iter().filter(|r| r.accurate(t)).count()),
+                accurate: CORNER_THRESHOLDS.map(|t| mine.iter().filter(|r| r.accurate(t)).count()),
                 repeatability_3px: mine.iter().map(|r| r.repeatability_3px).sum::<f64>() / n,
                 repeatability_overlap: {
-                    let known: Vec<f64> =
-                        mine.iter().filter_map(|r| r.repeatability_overlap).collect();
+                    let known: Vec<f64> = mine
+                        .iter()
+                        .filter_map(|r| r.repeatability_overlap)
+                        .collect();
                     (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64)
                 },
             }
@@ -291,7 +295,16 @@ mod tests {
         assert!(r.corner_error.unwrap() < 1e-6 && r.accurate(1.0));
         // The same points judged against a wrong map: matched, never correct.
         let wrong = [1.0, 0.0, 40.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-        let r = judge_pair("t", "p", &a, (300, 200), &b, (300, 200), &wrong, (0.8, 10.0));
+        let r = judge_pair(
+            "t",
+            "p",
+            &a,
+            (300, 200),
+            &b,
+            (300, 200),
+            &wrong,
+            (0.8, 10.0),
+        );
         assert_eq!((r.matches, r.correct[9]), (60, 0));
         assert!(!r.accurate(5.0) && r.mma(10) == 0.0);
     }

@@ -35,14 +35,21 @@ fn local_scale(h: &Homography, x: f64, y: f64) -> Option<f64> {
 
 /// Overlap error 1 − |A ∩ B| / |A ∪ B| of discs of radii `r1`, `r2` whose centres are `d` apart.
 pub fn disc_overlap_error(r1: f64, r2: f64, d: f64) -> f64 {
-    let (a1, a2) = (std::f64::consts::PI * r1 * r1, std::f64::consts::PI * r2 * r2);
+    let (a1, a2) = (
+        std::f64::consts::PI * r1 * r1,
+        std::f64::consts::PI * r2 * r2,
+    );
     let inter = if d >= r1 + r2 {
         0.0
     } else if d <= (r1 - r2).abs() {
         a1.min(a2)
     } else {
-        let alpha = ((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1)).clamp(-1.0, 1.0).acos();
-        let beta = ((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2)).clamp(-1.0, 1.0).acos();
+        let alpha = ((d * d + r1 * r1 - r2 * r2) / (2.0 * d * r1))
+            .clamp(-1.0, 1.0)
+            .acos();
+        let beta = ((d * d + r2 * r2 - r1 * r1) / (2.0 * d * r2))
+            .clamp(-1.0, 1.0)
+            .acos();
         r1 * r1 * (alpha - alpha.sin() * alpha.cos()) + r2 * r2 * (beta - beta.sin() * beta.cos())
     };
     1.0 - inter / (a1 + a2 - inter)

@@ -10,10 +10,10 @@ use serde::{Deserialize, Serialize};
 
 use super::config::{DescriptorKind, DetectorConfig};
 use super::descriptor::describe;
+use super::harris::plan::{descriptor_level, level_blur};
 use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
-use super::harris::plan::{descriptor_level, level_blur};
 use super::pyramid::Pyramid;
 use super::steered::cpu::describe_steered_blurred;
 use super::steered::GpuSteered;
@@ -210,18 +210,30 @@ impl Detector {
 
     /// Detects on a stream of frames, in order, with two frames in flight on the GPU: the
     /// passes of the next frame run while this one's candidates are read back, merged and
-    /// described, and nothing waits on the device between frames. Each item carries a tag
-    /// (an index, a path) and a frame or the error that stopped its decoding, which `done`
-    /// receives unchanged. Results are those of [`Self::detect`] frame by frame; on the CPU it
-    /// is `detect` in a loop.
+    /// described, and nothing waits on the device between frames. On the CPU, as many frames
+    /// run at once as rayon has threads. Each item carries a tag (an index, a path) and a
+    /// frame or the error that stopped its decoding, which `done` receives unchanged, in
+    /// order. Results are those of [`Self::detect`] frame by frame.
     pub fn detect_stream<T>(
         &self,
         items: impl IntoIterator<Item = (T, Result<Frame>)>,
         mut done: impl FnMut(T, Result<(Frame, Detection)>),
     ) {
         let Some(g) = &self.gpu else {
-            for (tag, frame) in items {
-                done(tag, frame.and_then(|f| self.detect(&f).map(|d| (f, d))));
+            // On the CPU, as many frames at once as there are threads: each frame's own
+            // parallel passes leave cores idle in their serial parts (merge, sorting).
+            let window = rayon::current_num_threads().max(1);
+            let mut items = items.into_iter().peekable();
+            while items.peek().is_some() {
+                let (tags, frames): (Vec<T>, Vec<Result<Frame>>) =
+                    items.by_ref().take(window).unzip();
+                let results: Vec<Result<(Frame, Detection)>> = frames
+                    .into_par_iter()
+                    .map(|frame| frame.and_then(|f| self.detect(&f).map(|d| (f, d))))
+                    .collect();
+                for (tag, result) in tags.into_iter().zip(results) {
+                    done(tag, result);
+                }
             }
             return;
         };
@@ -314,10 +326,12 @@ impl Detector {
                     if chosen.is_empty() {
                         continue;
                     }
-                    let points: Vec<_> = chosen.iter().map(|&i| on_level(&keypoints[i]).1).collect();
+                    let points: Vec<_> =
+                        chosen.iter().map(|&i| on_level(&keypoints[i]).1).collect();
                     let blur = on_level(&keypoints[chosen[0]]).2;
                     let (plane, lw, lh) = pyramid.level(level);
-                    let described = g.describe_blurred(plane, lw as u32, lh as u32, &points, blur)?;
+                    let described =
+                        g.describe_blurred(plane, lw as u32, lh as u32, &points, blur)?;
                     for (&i, d) in chosen.iter().zip(described) {
                         keypoints[i].descriptor = d.values;
                     }

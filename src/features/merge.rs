@@ -216,7 +216,8 @@ fn spread_out(clusters: Vec<Cluster>, plan: &HarrisPlan) -> Vec<Cluster> {
             clusters[..i]
                 .iter()
                 .filter(|o| {
-                    c.strength < ANMS_ROBUSTNESS * o.strength && octave(c.scale_index, o.scale_index)
+                    c.strength < ANMS_ROBUSTNESS * o.strength
+                        && octave(c.scale_index, o.scale_index)
                 })
                 .map(|o| dist2((c.x, c.y), (o.x, o.y)))
                 .fold(f32::INFINITY, f32::min)
@@ -247,7 +248,12 @@ struct ScaleGrids {
 
 impl ScaleGrids {
     /// `cell(s)` must be at least the largest radius a query of scale s ± 1 asks at scale s.
-    fn new(points: &[(f32, f32)], scales: &[usize], plan: &HarrisPlan, cell: impl Fn(usize) -> f32) -> Self {
+    fn new(
+        points: &[(f32, f32)],
+        scales: &[usize],
+        plan: &HarrisPlan,
+        cell: impl Fn(usize) -> f32,
+    ) -> Self {
         let count = plan.scales.len();
         let grids = (0..count)
             .map(|s| {
@@ -323,8 +329,9 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         seeds.truncate(limit);
         let seed_points: Vec<(f32, f32)> = seeds.iter().map(|&i| points[i]).collect();
         let seed_scales: Vec<usize> = seeds.iter().map(|&i| scale_of[i]).collect();
-        let seed_grids =
-            ScaleGrids::new(&seed_points, &seed_scales, plan, |s| 2.0 * reach * r * factor[s] * spread);
+        let seed_grids = ScaleGrids::new(&seed_points, &seed_scales, plan, |s| {
+            2.0 * reach * r * factor[s] * spread
+        });
         (0..points.len())
             .filter(|&i| {
                 seed_grids.near(points[i], scale_of[i]).any(|k| {
@@ -348,7 +355,9 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let mut centres: Vec<(f32, f32)> = seed_at.iter().map(|&k| points[k]).collect();
     let mut assignment: Vec<Option<usize>> = Vec::new();
     for iteration in 0..3 {
-        let grid = ScaleGrids::new(&centres, &centre_scales, plan, |s| reach * r * factor[s] * spread);
+        let grid = ScaleGrids::new(&centres, &centre_scales, plan, |s| {
+            reach * r * factor[s] * spread
+        });
         assignment = points
             .par_iter()
             .zip(&scale_of)
@@ -637,8 +646,18 @@ mod tests {
     fn anms_spreads_the_keypoints_over_the_image() {
         // A tight block of strong corners on the left, weaker ones spread on the right.
         let mut c: Vec<Candidate> = (0..40)
-            .map(|i| cand(10.0 + (i % 8) as f32 * 5.0, 10.0 + (i / 8) as f32 * 5.0, 10.0 + i as f32, 0, 0))
-            .chain((0..10).map(|i| cand(200.0 + i as f32 * 30.0, 100.0, 1.0 + i as f32 * 0.01, 0, 0)))
+            .map(|i| {
+                cand(
+                    10.0 + (i % 8) as f32 * 5.0,
+                    10.0 + (i / 8) as f32 * 5.0,
+                    10.0 + i as f32,
+                    0,
+                    0,
+                )
+            })
+            .chain(
+                (0..10).map(|i| cand(200.0 + i as f32 * 30.0, 100.0, 1.0 + i as f32 * 0.01, 0, 0)),
+            )
             .collect();
         crate::features::sort_candidates(&mut c);
         let mut cfg = DetectorConfig {

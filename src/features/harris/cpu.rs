@@ -29,8 +29,10 @@ const RESPONSE_BUDGET_BYTES: usize = 256 << 20;
 /// The CPU backend of the Harris stage; reuses its buffers across frames of one size.
 pub struct CpuHarris {
     plan: HarrisPlan,
-    /// One band of responses per scale, reused (and resized) from frame to frame.
-    bands: Mutex<Vec<ScaleBand>>,
+    /// Sets of bands (one per scale), reused (and resized) from frame to frame: a frame takes
+    /// one set out of the pool and puts it back, so frames detected at once on several
+    /// threads (a CPU batch) never wait for each other.
+    bands: Mutex<Vec<Vec<ScaleBand>>>,
     /// The structure tensor's non-zero weights per orientation, built once.
     terms: TensorTerms,
     response_budget: usize,
@@ -58,7 +60,7 @@ impl CpuHarris {
     /// Prepares the backend for a plan.
     pub fn new(plan: HarrisPlan) -> Self {
         Self {
-            bands: Mutex::new(plan.scales.iter().map(|_| ScaleBand::default()).collect()),
+            bands: Mutex::new(Vec::new()),
             terms: tensor_terms(&plan),
             plan,
             response_budget: RESPONSE_BUDGET_BYTES,
@@ -130,7 +132,9 @@ impl CpuHarris {
         height: usize,
     ) -> (Vec<Candidate>, f32, CpuTimings) {
         let plan = &self.plan;
-        let mut bands = self.bands.lock().unwrap_or_else(|e| e.into_inner());
+        let taken = self.bands.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        let mut bands =
+            taken.unwrap_or_else(|| plan.scales.iter().map(|_| ScaleBand::default()).collect());
         let grids = plan.grids(width, height);
         let max_step = plan.max_step() as usize;
         // Bytes of responses per image row, over all scales and orientations.
@@ -145,8 +149,10 @@ impl CpuHarris {
         // Rows a band's suppression reads beyond its own: ±1 grid row of its scale, and the 3×3
         // around the nearest sample of the adjacent scales (±1.5 of their steps).
         let halo = 2 * max_step + 1;
-        let (mut responses_time, mut nms_time) =
-            (std::time::Duration::default(), std::time::Duration::default());
+        let (mut responses_time, mut nms_time) = (
+            std::time::Duration::default(),
+            std::time::Duration::default(),
+        );
         let config = &plan.config;
         let capacity = config.candidate_capacity;
         // The strongest response so far; the final one is at least this, so candidates below
@@ -171,14 +177,8 @@ impl CpuHarris {
                 band.rows = last - first;
                 band.data
                     .resize(band.rows * gw * plan.orientations.len(), 0.0);
-                let peak = scale_responses(
-                    plan,
-                    &self.terms,
-                    s,
-                    &pyramid,
-                    first..last,
-                    &mut band.data,
-                );
+                let peak =
+                    scale_responses(plan, &self.terms, s, &pyramid, first..last, &mut band.data);
                 strongest = strongest.max(peak);
             }
             let t1 = std::time::Instant::now();
@@ -212,6 +212,10 @@ impl CpuHarris {
             responses_ms: ms(responses_time),
             nms_ms: ms(nms_time),
         };
+        self.bands
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(bands);
         (found, threshold, timings)
     }
 }

@@ -453,7 +453,13 @@ impl GpuHarris {
                 storage(device, "pyramid level", lw as u64 * lh as u64 * 4)
             })
             .collect();
-        let level_buffer = |l: u32| if l == 0 { &gray } else { &levels[l as usize - 1] };
+        let level_buffer = |l: u32| {
+            if l == 0 {
+                &gray
+            } else {
+                &levels[l as usize - 1]
+            }
+        };
         // Level l into level l + 1: blurred columns at every second row into `tmp`, then
         // blurred rows at every second column into the next level.
         let pyramid: Vec<PyramidGroups> = self
