@@ -2,11 +2,15 @@
 //! clustered, clusters whose means end up close are merged, and each cluster's mean becomes a
 //! keypoint.
 //!
-//! The default (`covariant`) is built so that a rotated image merges into the rotated keypoints:
-//! stage 1 is k-means seeded deterministically by a radius suppression over the candidates,
-//! strongest first, with each mean confined to its neighbourhood (assignment radius 1.5·r);
-//! stage 2 merges the means that end up within r of a stronger one. `kmeans-pp` is the literal
-//! reading (k-means++ random starts over all candidates), kept for comparison.
+//! The default (`covariant`) is built so that a rotated or zoomed image merges into the rotated
+//! or zoomed keypoints: stage 1 is k-means seeded deterministically by a radius suppression over
+//! the candidates, strongest first, with each mean confined to its neighbourhood (assignment
+//! radius 1.5·r); stage 2 merges the means that end up within r of a stronger one. The radius
+//! grows with scale (r·σ_D/σ_0, the larger of the two scales) and only adjacent scales meet,
+//! so a fine and a coarse keypoint at one place both survive; `pixel` keeps r at every scale
+//! and across all scales. `kmeans-pp` is the literal reading (k-means++ random starts over all
+//! candidates), kept for comparison. `spread = "anms"` then picks the kept clusters by adaptive
+//! non-maximal suppression within an octave instead of by rank.
 //!
 //! Clusters are ranked (and cut to `max_keypoints`) by their strength: the strongest member
 //! response times its scale's `rank_weight`, so ranking across scales has its own

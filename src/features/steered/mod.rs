@@ -15,7 +15,9 @@
 //!    normalised again, so that a few saturated gradients (light changes) cannot dominate.
 //!
 //! Each keypoint works on its own patch, smoothed on the spot, so memory does not grow with
-//! the image and the cost grows with σ_D² only for the rare coarse keypoints.
+//! the image. The detector reads a coarse keypoint on the pyramid level of its scale
+//! ([`crate::features::harris::plan::descriptor_level`]), so its patch has the size of a fine
+//! one's.
 //!
 //! Both the orientation and the descriptor are rotation invariant by construction: rotating
 //! the image rotates the window, the gradients and θ* together.
