@@ -70,9 +70,11 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
         .unwrap()
         .detect(&frame)
         .unwrap();
-    // Keypoints at the same place carry nearly the same descriptor.
+    // Keypoints at the same place carry nearly the same descriptor, those read on a pyramid
+    // level (σ_D ≥ 2) included.
     let mut pairs = 0;
     let mut agree = 0;
+    let mut on_levels = 0;
     for a in &g.keypoints {
         if let Some(b) = c
             .keypoints
@@ -80,6 +82,7 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
             .find(|b| (a.x - b.x).abs() < 1e-3 && (a.y - b.y).abs() < 1e-3 && a.scale == b.scale)
         {
             pairs += 1;
+            on_levels += usize::from(a.scale >= 2.0);
             let d = steernav::features::steered::cpu::distance(&a.descriptor, &b.descriptor);
             if d < 1e-2 {
                 agree += 1;
@@ -87,5 +90,49 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
         }
     }
     assert!(pairs > 50, "{pairs} shared keypoints");
+    assert!(
+        on_levels >= 10,
+        "{on_levels} shared keypoints read on a pyramid level"
+    );
     assert!(agree as f64 >= 0.97 * pairs as f64, "{agree} of {pairs}");
+}
+
+#[test]
+fn descriptors_on_a_blurred_plane_match_the_cpu_twin() {
+    let Some(ctx) = common::gpu() else {
+        return;
+    };
+    // A pyramid level carries a blur of 1 px: both twins smooth by what is missing.
+    use steernav::features::steered::cpu::describe_steered_blurred;
+    let frame = textured_scene(160, 120, 8);
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let mut rng = steernav::synth::Rng(9);
+    let points: Vec<(f32, f32, f32)> = (0..80)
+        .map(|i| {
+            (
+                rng.range(0.0, w as f32),
+                rng.range(0.0, h as f32),
+                [1.0, 1.41, 1.9][i % 3],
+            )
+        })
+        .collect();
+    let gpu = GpuSteered::new(ctx)
+        .describe_blurred(&frame.gray, frame.width, frame.height, &points, 1.0)
+        .unwrap();
+    let close = points
+        .iter()
+        .zip(&gpu)
+        .filter(|(&p, g)| {
+            let c = describe_steered_blurred(&frame.gray, w, h, p, 1.0);
+            c.values
+                .iter()
+                .zip(&g.values)
+                .all(|(a, b)| (a - b).abs() <= 2e-3)
+        })
+        .count();
+    assert!(
+        close as f64 >= 0.97 * points.len() as f64,
+        "{close} of {}",
+        points.len()
+    );
 }
