@@ -1,5 +1,6 @@
 // The steered descriptor: one workgroup per keypoint. The patch around the keypoint is
-// smoothed at its sigma_D (rows, then columns, borders clamped), differentiated, and read in
+// smoothed at its sigma_D (rows, then columns, borders clamped) on the plane it reads (its
+// pyramid level; every level of a frame lies in `gray`), differentiated, and read in
 // the frame of its dominant first-order steered direction: a 36-bin orientation histogram,
 // then 4x4 cells x 8 directions with trilinear weights, normalised, clipped at 0.2 and
 // normalised again. Every histogram bin is summed by one invocation over the patch's pixels
@@ -7,14 +8,14 @@
 // CPU twin: describe_steered in src/features/steered/cpu.rs.
 
 struct Params {
-    width: u32,
-    height: u32,
     count: u32,     // keypoints in this dispatch
     groups_x: u32,  // workgroups along x (keypoint k = wg.y * groups_x + wg.x)
     slots: u32,     // keypoints of the whole frame: the orientations follow their descriptors
     first: u32,     // this dispatch's first job
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
+    _pad3: u32,
 }
 
 struct Job {
@@ -26,6 +27,10 @@ struct Job {
     taps: u32,      // offset of its taps
     scratch: u32,   // offset of this keypoint's scratch
     slot: u32,      // output slot
+    plane: u32,     // offset in `gray` of the plane (pyramid level) it reads
+    width: u32,     // that plane's size
+    height: u32,
+    _pad: u32,
 }
 
 const CELLS: u32 = 4u;
@@ -81,10 +86,15 @@ fn wrap_angle(a: f32) -> f32 {
     return a - TAU * floor(a / TAU);
 }
 
+// The plane of the keypoint this workgroup describes (set at the top of main).
+var<private> plane_base: u32;
+var<private> plane_width: u32;
+var<private> plane_height: u32;
+
 fn pixel(u: i32, v: i32) -> f32 {
-    let x = u32(clamp(u, 0, i32(params.width) - 1));
-    let y = u32(clamp(v, 0, i32(params.height) - 1));
-    return gray[y * params.width + x];
+    let x = u32(clamp(u, 0, i32(plane_width) - 1));
+    let y = u32(clamp(v, 0, i32(plane_height) - 1));
+    return gray[plane_base + y * plane_width + x];
 }
 
 fn parabola_offset(l: f32, c: f32, r: f32) -> f32 {
@@ -102,6 +112,9 @@ fn main(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_index) l
         return;
     }
     let job = jobs[params.first + k];
+    plane_base = job.plane;
+    plane_width = job.width;
+    plane_height = job.height;
     let r = job.radius;
     let half = job.half;
     let side = 2u * half + 1u;

@@ -16,6 +16,7 @@ use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
 use super::pyramid::Pyramid;
 use super::steered::cpu::describe_steered_blurred;
+use super::steered::gpu::{Plane, PlanePoint};
 use super::steered::GpuSteered;
 use super::{Candidate, Keypoint};
 use crate::error::{Error, Result};
@@ -319,22 +320,27 @@ impl Detector {
         };
         match (&self.gpu_steered, backend) {
             (Some(g), "gpu") => {
-                for level in 0..=top {
-                    let chosen: Vec<usize> = (0..keypoints.len())
-                        .filter(|&i| on_level(&keypoints[i]).0 == level)
-                        .collect();
-                    if chosen.is_empty() {
-                        continue;
-                    }
-                    let points: Vec<_> =
-                        chosen.iter().map(|&i| on_level(&keypoints[i]).1).collect();
-                    let blur = on_level(&keypoints[chosen[0]]).2;
-                    let (plane, lw, lh) = pyramid.level(level);
-                    let described =
-                        g.describe_blurred(plane, lw as u32, lh as u32, &points, blur)?;
-                    for (&i, d) in chosen.iter().zip(described) {
-                        keypoints[i].descriptor = d.values;
-                    }
+                let planes: Vec<Plane> = (0..=top)
+                    .map(|level| {
+                        let (gray, lw, lh) = pyramid.level(level);
+                        Plane {
+                            gray,
+                            width: lw as u32,
+                            height: lh as u32,
+                            prior_blur: level_blur(level) / (1u32 << level) as f32,
+                        }
+                    })
+                    .collect();
+                let points: Vec<PlanePoint> = keypoints
+                    .iter()
+                    .map(|k| {
+                        let (level, point, _) = on_level(k);
+                        (level as usize, point)
+                    })
+                    .collect();
+                let described = g.describe_planes(&planes, &points)?;
+                for (k, d) in keypoints.iter_mut().zip(described) {
+                    k.descriptor = d.values;
                 }
             }
             _ => keypoints.par_iter_mut().for_each(|k| {

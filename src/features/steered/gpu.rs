@@ -10,7 +10,7 @@
 use std::sync::{Arc, Mutex};
 
 use super::{patch_geometry, Steered, STEERED_LEN};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::{single_main, PipelineSet};
 use crate::gpu::util::{bind, read_staging, staging, storage, uniform};
@@ -32,14 +32,14 @@ impl PipelineSet for SteeredPipeline {
 
 gpu_struct! {
     struct Params as "Params" {
-        width: u32,
-        height: u32,
         count: u32,
         groups_x: u32,
         slots: u32,
         first: u32,
         _pad0: u32,
         _pad1: u32,
+        _pad2: u32,
+        _pad3: u32,
     }
 }
 
@@ -53,8 +53,30 @@ gpu_struct! {
         taps: u32,
         scratch: u32,
         slot: u32,
+        plane: u32,
+        width: u32,
+        height: u32,
+        _pad: u32,
     }
 }
+
+/// One plane the descriptors read: a luminance image (a pyramid level) and the Gaussian blur
+/// it already carries, in its own pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct Plane<'a> {
+    /// Row-major luminance, `width`×`height`.
+    pub gray: &'a [f32],
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Blur already in the plane (0 for a camera image, 1 for a pyramid level).
+    pub prior_blur: f32,
+}
+
+/// A keypoint to describe: the index of the plane it is read on, and (x, y, σ_D) in that
+/// plane's pixels.
+pub type PlanePoint = (usize, (f32, f32, f32));
 
 /// Bytes of patch scratch one dispatch may use.
 const SCRATCH_BUDGET_BYTES: u64 = 64 << 20;
@@ -62,10 +84,10 @@ const SCRATCH_BUDGET_BYTES: u64 = 64 << 20;
 /// (lavapipe stops loops past 65,535 iterations).
 const MAX_WINDOW_PIXELS: usize = 65_535;
 
-/// Buffers for one image size and keypoint capacity.
+/// Buffers for a plane capacity and a keypoint capacity.
 struct Resources {
-    width: u32,
-    height: u32,
+    /// Floats the planes' buffer holds.
+    pixels: usize,
     capacity: usize,
     gray: wgpu::Buffer,
     taps: wgpu::Buffer,
@@ -123,32 +145,72 @@ impl GpuSteered {
         points: &[(f32, f32, f32)],
         prior_blur: f32,
     ) -> Result<Vec<Steered>> {
-        let (w, h) = (width as usize, height as usize);
+        let plane = Plane {
+            gray,
+            width,
+            height,
+            prior_blur,
+        };
+        let points: Vec<PlanePoint> = points.iter().map(|&p| (0, p)).collect();
+        self.describe_planes(&[plane], &points)
+    }
+
+    /// Descriptors of keypoints read on several planes (a frame's pyramid levels) with one
+    /// upload of every plane, one submission and one readback; each point as
+    /// [`super::cpu::describe_steered_blurred`] gives it on its plane, in the order given.
+    pub fn describe_planes(&self, planes: &[Plane], points: &[PlanePoint]) -> Result<Vec<Steered>> {
         let mut out: Vec<Option<Steered>> = vec![None; points.len()];
-        // Plan: kernels deduplicated by σ (a handful of scales), scratch per keypoint.
+        let mut offsets = Vec::with_capacity(planes.len());
+        let mut pixels = 0usize;
+        for (i, p) in planes.iter().enumerate() {
+            if p.gray.len() != p.width as usize * p.height as usize || p.gray.is_empty() {
+                return Err(Error::Config {
+                    field: "plane",
+                    value: i.to_string(),
+                    reason: format!(
+                        "{} values for a {}x{} plane",
+                        p.gray.len(),
+                        p.width,
+                        p.height
+                    ),
+                });
+            }
+            offsets.push(pixels);
+            pixels += p.gray.len();
+        }
+        // Plan: kernels deduplicated by σ and blur (a handful), scratch per keypoint.
         let mut taps: Vec<f32> = Vec::new();
-        let mut kernels: Vec<(f32, u32, u32)> = Vec::new();
+        let mut kernels: Vec<((u32, u32), u32)> = Vec::new();
         let mut planned: Vec<Planned> = Vec::new();
-        for (slot, &(x, y, sigma)) in points.iter().enumerate() {
-            let (half, kernel) = patch_geometry(sigma, prior_blur);
+        for (slot, &(index, (x, y, sigma))) in points.iter().enumerate() {
+            let plane = planes.get(index).ok_or_else(|| Error::Config {
+                field: "plane",
+                value: index.to_string(),
+                reason: format!(
+                    "keypoint {slot} names a plane past the {} given",
+                    planes.len()
+                ),
+            })?;
+            let (half, kernel) = patch_geometry(sigma, plane.prior_blur);
             let side = 2 * half + 1;
             if side * side > MAX_WINDOW_PIXELS {
                 out[slot] = Some(super::cpu::describe_steered_blurred(
-                    gray,
-                    w,
-                    h,
+                    plane.gray,
+                    plane.width as usize,
+                    plane.height as usize,
                     (x, y, sigma),
-                    prior_blur,
+                    plane.prior_blur,
                 ));
                 continue;
             }
             let r = kernel.radius();
-            let offset = match kernels.iter().find(|k| k.0 == sigma) {
+            let key = (sigma.to_bits(), plane.prior_blur.to_bits());
+            let offset = match kernels.iter().find(|k| k.0 == key) {
                 Some(k) => k.1,
                 None => {
                     let o = taps.len() as u32;
                     taps.extend(&kernel.taps);
-                    kernels.push((sigma, o, r as u32));
+                    kernels.push((key, o));
                     o
                 }
             };
@@ -163,12 +225,16 @@ impl GpuSteered {
                     taps: offset,
                     scratch: 0,
                     slot: slot as u32,
+                    plane: offsets[index] as u32,
+                    width: plane.width,
+                    height: plane.height,
+                    _pad: 0,
                 },
                 scratch_floats: outer * inner + inner * inner + 2 * side * side,
             });
         }
         if !planned.is_empty() {
-            let values = self.run(gray, width, height, &taps, &mut planned, points.len())?;
+            let values = self.run(planes, pixels, &taps, &mut planned, points.len())?;
             for p in &planned {
                 let s = p.job.slot as usize;
                 out[s] = Some(Steered {
@@ -185,9 +251,8 @@ impl GpuSteered {
 
     fn run(
         &self,
-        gray: &[f32],
-        width: u32,
-        height: u32,
+        planes: &[Plane],
+        pixels: usize,
         taps: &[f32],
         planned: &mut [Planned],
         slots: usize,
@@ -200,23 +265,21 @@ impl GpuSteered {
         let scratch_floats = budget.max(largest);
         let mut guard = self.resources.lock().unwrap_or_else(|e| e.into_inner());
         let fits = guard.as_ref().is_some_and(|r| {
-            r.width == width
-                && r.height == height
+            r.pixels >= pixels
                 && r.capacity >= slots
                 && r.taps.size() >= (taps.len() * 4) as u64
                 && r.scratch.size() >= (scratch_floats * 4) as u64
         });
         if !fits {
-            *guard = Some(self.allocate(
-                width,
-                height,
-                slots.max(64),
-                taps.len().max(256),
-                scratch_floats,
-            ));
+            *guard =
+                Some(self.allocate(pixels, slots.max(64), taps.len().max(256), scratch_floats));
         }
         let res = guard.as_ref().expect("allocated above");
-        queue.write_buffer(&res.gray, 0, bytemuck::cast_slice(gray));
+        let mut at = 0u64;
+        for p in planes {
+            queue.write_buffer(&res.gray, at, bytemuck::cast_slice(p.gray));
+            at += p.gray.len() as u64 * 4;
+        }
         queue.write_buffer(&res.taps, 0, bytemuck::cast_slice(taps));
         let pipeline = &self.ctx.pipelines::<SteeredPipeline>().0;
         // Chunks whose scratch fits the buffer, one dispatch each, in one submission: the
@@ -240,14 +303,14 @@ impl GpuSteered {
             .map(|&(a, b)| {
                 let count = (b - a) as u32;
                 Params {
-                    width,
-                    height,
                     count,
                     groups_x: count.clamp(1, 65_535),
                     slots: slots as u32,
                     first: a as u32,
                     _pad0: 0,
                     _pad1: 0,
+                    _pad2: 0,
+                    _pad3: 0,
                 }
             })
             .collect();
@@ -279,15 +342,14 @@ impl GpuSteered {
 
     fn allocate(
         &self,
-        width: u32,
-        height: u32,
+        pixels: usize,
         capacity: usize,
         taps: usize,
         scratch_floats: usize,
     ) -> Resources {
         let device = &self.ctx.device;
         let pipeline = &self.ctx.pipelines::<SteeredPipeline>().0;
-        let gray = storage(device, "steered gray", width as u64 * height as u64 * 4);
+        let gray = storage(device, "steered planes", pixels.max(1) as u64 * 4);
         let taps = storage(device, "steered taps", taps as u64 * 4);
         let jobs = storage(
             device,
@@ -302,14 +364,14 @@ impl GpuSteered {
             device,
             "steered params",
             &Params {
-                width,
-                height,
                 count: 0,
                 groups_x: 1,
                 slots: 0,
                 first: 0,
                 _pad0: 0,
                 _pad1: 0,
+                _pad2: 0,
+                _pad3: 0,
             },
         );
         let chunk_params = device.create_buffer(&wgpu::BufferDescriptor {
@@ -324,8 +386,7 @@ impl GpuSteered {
             &[&params, &gray, &taps, &jobs, &scratch, &out],
         );
         Resources {
-            width,
-            height,
+            pixels,
             capacity,
             gray,
             taps,
