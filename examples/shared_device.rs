@@ -26,7 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let context = Arc::new(GpuContext::from_device(device, queue, adapter.get_info()));
 
     let frame = steernav::synth::textured_scene(320, 240, 5);
-    let detector = Detector::with_context(&DetectorConfig::default(), Arc::clone(&context))?;
+    let detector = Detector::with_context(Arc::clone(&context), &DetectorConfig::default())?;
     let found = detector.detect(&frame)?;
     let mut gist = GpuGist::new(Arc::clone(&context), GistConfig::default())?;
     let descriptor = gist.describe_batch(std::slice::from_ref(&frame))?;

@@ -282,8 +282,8 @@ fn auto_never_takes_a_software_adapter() {
     // In CI the only adapter is lavapipe: `auto` must run on the CPU there.
     let detector = Detector::new(&DetectorConfig::default(), Backend::Auto).unwrap();
     match steernav::gpu::GpuContext::shared() {
-        Ok(ctx) if ctx.auto_refusal().is_some() => assert_eq!(detector.backend(), "cpu"),
-        Ok(_) => assert_eq!(detector.backend(), "gpu"),
-        Err(_) => assert_eq!(detector.backend(), "cpu"),
+        Ok(ctx) if ctx.auto_refusal().is_some() => assert_eq!(detector.backend(), Backend::Cpu),
+        Ok(_) => assert_eq!(detector.backend(), Backend::Gpu),
+        Err(_) => assert_eq!(detector.backend(), Backend::Cpu),
     }
 }

@@ -167,7 +167,7 @@ fn final_keypoints_have_twins_on_the_other_backend() {
             .unwrap()
             .detect(&frame)
             .unwrap();
-        assert_eq!((g.backend, c.backend), ("gpu", "cpu"));
+        assert_eq!((g.backend, c.backend), (Backend::Gpu, Backend::Cpu));
         assert!(
             c.keypoints.len() > 50,
             "too few keypoints to compare: {}",
@@ -307,7 +307,7 @@ fn frames_in_flight_give_the_results_of_one_frame_at_a_time() {
     detector.detect_stream(items, |tag, result| match result {
         Ok((frame, d)) => {
             assert_eq!(frame.width, frames[tag].width);
-            assert_eq!(d.backend, "gpu");
+            assert_eq!(d.backend, Backend::Gpu);
             assert_eq!(keypoints(&d), expected[tag], "frame {tag}");
             seen.push(tag);
         }

@@ -17,7 +17,6 @@ use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
 use steernav_core::eval::homography::Homography;
 use steernav_core::eval::recall::{Descriptors, KeypointSet};
-use steernav_core::gpu::GpuContext;
 use steernav_core::nav::controller::{Controller as CoreController, LaserScan};
 use steernav_core::nav::gist::{GistConfig, GistEngine, GpuGist};
 use steernav_core::nav::sim::episode::{Mode, NavConfig};
@@ -210,7 +209,7 @@ impl Keypoints {
             response: column(|k| k.response),
             descriptor: descriptor.into_pyarray(py).unbind(),
             descriptor_kind: d.descriptor.as_str(),
-            backend: d.backend,
+            backend: d.backend.as_str(),
             len: k,
         }
     }
@@ -279,7 +278,7 @@ impl Detector {
     /// "cpu" or "gpu": where frames go.
     #[getter]
     fn backend(&self) -> &'static str {
-        self.inner.backend()
+        self.inner.backend().as_str()
     }
 
     /// Keypoints of one image: uint8 or float32 in [0, 1], (H, W) or (H, W, 3) RGB.
@@ -339,11 +338,7 @@ fn gist<'py>(
             .map(|image| frame_of(&image?))
             .collect::<PyResult<Vec<_>>>()?
     };
-    let context = match backend {
-        Backend::Cpu => None,
-        Backend::Gpu => Some(GpuContext::shared().map_err(py_err)?),
-        Backend::Auto => steernav_core::gpu::context::auto_context().ok(),
-    };
+    let context = backend.resolve().map_err(py_err)?;
     let rows = py
         .detach(move || -> steernav_core::Result<Vec<Vec<f32>>> {
             match context {

@@ -80,7 +80,7 @@ pub enum Outcome {
         /// Harris candidates before the merge.
         candidates: usize,
         /// Backend that ran.
-        backend: &'static str,
+        backend: steernav::Backend,
         /// Wall-clock time of the detection.
         ms: f64,
         /// Why the file looks damaged though it decoded (a truncated JPEG), if it does.

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::Args;
-use steernav::{Backend, Frame};
+use steernav::Frame;
 
 use crate::args::{BackendArg, ConfigArg};
 
@@ -22,17 +22,7 @@ pub struct GistCmd {
 pub fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
     let cfg = cmd.config.settings()?.gist;
     let engine = steernav::nav::gist::GistEngine::new(cfg.clone())?;
-    let ctx = match cmd.backend.backend {
-        Backend::Cpu => None,
-        Backend::Gpu => Some(steernav::gpu::GpuContext::shared()?),
-        Backend::Auto => match steernav::gpu::context::auto_context() {
-            Ok(ctx) => Some(ctx),
-            Err(reason) => {
-                log::warn!("{reason}; using the CPU backend");
-                None
-            }
-        },
-    };
+    let ctx = cmd.backend.backend.resolve()?;
     let mut failed = 0;
     let mut loaded = Vec::new();
     for path in &cmd.images {

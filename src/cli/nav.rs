@@ -15,7 +15,6 @@ use steernav::nav::sim::evaluate::{
 use steernav::nav::sim::figure::episode_figure;
 use steernav::nav::sim::sweep::sweep;
 use steernav::nav::sim::world::World;
-use steernav::Backend;
 
 use crate::args::{choice, BackendArg, ConfigArg};
 
@@ -117,17 +116,7 @@ pub struct NavSweepCmd {
 fn field_gpu(
     backend: &BackendArg,
 ) -> anyhow::Result<Option<std::sync::Arc<steernav::gpu::GpuContext>>> {
-    Ok(match backend.backend {
-        Backend::Cpu => None,
-        Backend::Gpu => Some(steernav::gpu::GpuContext::shared()?),
-        Backend::Auto => match steernav::gpu::context::auto_context() {
-            Ok(ctx) => Some(ctx),
-            Err(reason) => {
-                log::warn!("{reason}; the field runs on the CPU");
-                None
-            }
-        },
-    })
+    Ok(backend.backend.resolve()?)
 }
 
 fn config(arg: &ConfigArg) -> anyhow::Result<NavConfig> {

@@ -39,6 +39,37 @@ pub enum Backend {
 
 named_variants!(Backend { Auto => "auto", Gpu => "gpu", Cpu => "cpu" });
 
+impl Backend {
+    /// The one place a backend choice becomes a GPU context or the CPU, for every stage (the
+    /// detector, GIST, the neural field, the benches, the Python bindings): `Cpu` gives
+    /// `None`; `Gpu` the process-wide context ([`GpuContext::shared`]), an error when no
+    /// adapter exists; `Auto` the shared context when its adapter is a hardware GPU, otherwise
+    /// `None`, saying why in a `log` warning, once per process.
+    pub fn resolve(self) -> Result<Option<Arc<GpuContext>>> {
+        match self {
+            Backend::Cpu => Ok(None),
+            Backend::Gpu => GpuContext::shared().map(Some),
+            Backend::Auto => match crate::gpu::context::auto_context() {
+                Ok(ctx) => Ok(Some(ctx)),
+                Err(reason) => {
+                    static WARNED: std::sync::Once = std::sync::Once::new();
+                    WARNED.call_once(|| log::warn!("{reason}; using the CPU backend"));
+                    Ok(None)
+                }
+            },
+        }
+    }
+
+    /// The backend a resolved context runs on: `Gpu` with one, `Cpu` without.
+    pub fn of(context: Option<&Arc<GpuContext>>) -> Self {
+        if context.is_some() {
+            Backend::Gpu
+        } else {
+            Backend::Cpu
+        }
+    }
+}
+
 /// Wall-clock and GPU timings of one detection.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct StageTimings {
@@ -61,8 +92,8 @@ pub struct HarrisRun {
     pub candidates: Vec<Candidate>,
     /// The threshold finally applied.
     pub threshold: f32,
-    /// "gpu" or "cpu".
-    pub backend: &'static str,
+    /// Where it ran: [`Backend::Gpu`] or [`Backend::Cpu`].
+    pub backend: Backend,
     /// GPU stage times (timestamp queries), when the GPU ran with them.
     pub gpu: Option<GpuTimings>,
     /// CPU stage times, when the CPU ran.
@@ -80,8 +111,8 @@ pub struct Detection {
     pub threshold: f32,
     /// Number of keypoints whose dominant scale is each detection scale.
     pub scale_histogram: Vec<usize>,
-    /// "gpu" or "cpu".
-    pub backend: &'static str,
+    /// Where it ran: [`Backend::Gpu`] or [`Backend::Cpu`].
+    pub backend: Backend,
     /// The descriptor the keypoints carry.
     pub descriptor: DescriptorKind,
     /// Timings.
@@ -105,17 +136,9 @@ impl Detector {
     pub fn new(config: &DetectorConfig, backend: Backend) -> Result<Self> {
         config.validate()?;
         let plan = HarrisPlan::new(config);
-        let gpu = match backend {
-            Backend::Cpu => None,
-            Backend::Gpu => Some(GpuHarris::new(GpuContext::shared()?, plan.clone())),
-            Backend::Auto => match crate::gpu::context::auto_context() {
-                Ok(ctx) => Some(GpuHarris::new(ctx, plan.clone())),
-                Err(reason) => {
-                    log::warn!("{reason}; using the CPU backend");
-                    None
-                }
-            },
-        };
+        let gpu = backend
+            .resolve()?
+            .map(|ctx| GpuHarris::new(ctx, plan.clone()));
         Ok(Self {
             cpu: CpuHarris::new(plan.clone()),
             gpu_steered: gpu.as_ref().map(|g| GpuSteered::new(g.context().clone())),
@@ -128,7 +151,7 @@ impl Detector {
     /// A detector on a GPU context the caller owns (see [`GpuContext::from_device`]), for a
     /// program that shares one wgpu device between steernav and its own work. Frames too large
     /// for the device are an error, as with [`Backend::Gpu`].
-    pub fn with_context(config: &DetectorConfig, context: Arc<GpuContext>) -> Result<Self> {
+    pub fn with_context(context: Arc<GpuContext>, config: &DetectorConfig) -> Result<Self> {
         config.validate()?;
         let plan = HarrisPlan::new(config);
         Ok(Self {
@@ -150,12 +173,12 @@ impl Detector {
         &self.plan.config
     }
 
-    /// "gpu" or "cpu": where frames go by default.
-    pub fn backend(&self) -> &'static str {
+    /// [`Backend::Gpu`] or [`Backend::Cpu`]: where frames go by default.
+    pub fn backend(&self) -> Backend {
         if self.gpu.is_some() {
-            "gpu"
+            Backend::Gpu
         } else {
-            "cpu"
+            Backend::Cpu
         }
     }
 
@@ -188,7 +211,7 @@ impl Detector {
                     return Ok(HarrisRun {
                         candidates,
                         threshold,
-                        backend: "gpu",
+                        backend: Backend::Gpu,
                         gpu,
                         cpu: None,
                     })
@@ -245,7 +268,7 @@ impl Detector {
                 .map(|(candidates, threshold, gpu)| HarrisRun {
                     candidates,
                     threshold,
-                    backend: "gpu",
+                    backend: Backend::Gpu,
                     gpu,
                     cpu: None,
                 });
@@ -295,7 +318,7 @@ impl Detector {
         HarrisRun {
             candidates,
             threshold,
-            backend: "cpu",
+            backend: Backend::Cpu,
             gpu: None,
             cpu: Some(cpu),
         }
@@ -306,7 +329,7 @@ impl Detector {
     fn describe_steered(
         &self,
         frame: &Frame,
-        backend: &'static str,
+        backend: Backend,
         keypoints: &mut [Keypoint],
     ) -> Result<()> {
         let (w, h) = (frame.width as usize, frame.height as usize);
@@ -319,7 +342,7 @@ impl Detector {
             (level, (k.x / f, k.y / f, k.scale / f), blur)
         };
         match (&self.gpu_steered, backend) {
-            (Some(g), "gpu") => {
+            (Some(g), Backend::Gpu) => {
                 let planes: Vec<Plane> = (0..=top)
                     .map(|level| {
                         let (gray, lw, lh) = pyramid.level(level);

@@ -71,13 +71,7 @@ pub fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     let mut backends = Vec::new();
     for b in &cmd.backend {
         let b = match b {
-            Backend::Auto => match steernav::gpu::context::auto_context() {
-                Ok(_) => Backend::Gpu,
-                Err(reason) => {
-                    log::warn!("{reason}; --backend auto times the CPU");
-                    Backend::Cpu
-                }
-            },
+            Backend::Auto => Backend::of(Backend::Auto.resolve()?.as_ref()),
             other => *other,
         };
         if !backends.contains(&b) {

@@ -14,7 +14,7 @@ use steernav::slam::tracker::{FrameReport, Slam};
 #[derive(Clone, Debug, Serialize)]
 pub struct SlamBenchRow {
     /// "cpu" or "gpu": where detection ran.
-    pub backend: &'static str,
+    pub backend: steernav::Backend,
     /// Frame size, pixels.
     pub width: u32,
     /// Frame size, pixels.
@@ -85,7 +85,7 @@ pub fn run(
 
 fn summarise(
     reports: &[FrameReport],
-    backend: &'static str,
+    backend: steernav::Backend,
     width: u32,
     height: u32,
 ) -> SlamBenchRow {
