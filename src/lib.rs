@@ -59,6 +59,7 @@ pub mod error;
 pub mod features;
 pub mod gpu;
 pub mod image;
+pub mod rng;
 pub mod settings;
 pub mod simd;
 

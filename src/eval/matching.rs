@@ -271,7 +271,7 @@ mod tests {
 
     #[test]
     fn a_shifted_set_matches_fully_and_its_homography_is_exact() {
-        let mut rng = crate::synth::Rng(5);
+        let mut rng = crate::rng::Rng(5);
         let points: Vec<(f64, f64)> = (0..60)
             .map(|_| (rng.range(0.0, 300.0) as f64, rng.range(0.0, 200.0) as f64))
             .collect();

@@ -7,7 +7,7 @@ use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
 
 use crate::features::Keypoint;
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// One correspondence: keypoint `i` of the first image and `j` of the second.
 #[derive(Clone, Copy, Debug, PartialEq)]

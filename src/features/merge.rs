@@ -424,7 +424,7 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
 fn kmeans_pp_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let points: Vec<(f32, f32)> = candidates.iter().map(|c| (c.x, c.y)).collect();
     let k = plan.config.max_keypoints.min(points.len());
-    let mut rng = crate::synth::Rng(plan.config.seed);
+    let mut rng = crate::rng::Rng(plan.config.seed);
     let mut centres = vec![points[(rng.unit_f64() * points.len() as f64) as usize % points.len()]];
     let mut d2: Vec<f32> = points.iter().map(|&p| dist2(p, centres[0])).collect();
     while centres.len() < k {
@@ -556,7 +556,7 @@ mod tests {
 
     #[test]
     fn grid_finds_every_point_within_a_cell() {
-        let mut rng = crate::synth::Rng(3);
+        let mut rng = crate::rng::Rng(3);
         let pts: Vec<(f32, f32)> = (0..2000)
             .map(|_| (rng.range(0.0, 300.0), rng.range(0.0, 200.0)))
             .collect();

@@ -11,8 +11,6 @@
 //! fixed quadratic forms in the window-blurred products Q_jk = w(σ_I) * (D_j D_k), so one scale
 //! costs (n+2)(n+3)/2 blurred images whatever the number of orientations N.
 
-use super::config::DetectorConfig;
-
 /// A 1-D kernel in correlation form: `out[x] = Σ_t taps[t + radius] · in[x + t]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Kernel1d {
@@ -106,17 +104,6 @@ pub fn steering_coefficients(order: usize, theta: f32) -> Vec<f32> {
 pub fn orientations(n: usize) -> Vec<f32> {
     (0..n)
         .map(|i| i as f32 * std::f32::consts::PI / n as f32)
-        .collect()
-}
-
-/// The basis filters B_i (eq 3) at σ_b as separable kernels.
-pub fn basis_filters(config: &DetectorConfig) -> Vec<Separable> {
-    let n = config.basis.order();
-    (0..=n)
-        .map(|i| Separable {
-            column: Kernel1d::gaussian_derivative(config.basis_sigma, i, config.truncate),
-            row: Kernel1d::gaussian_derivative(config.basis_sigma, n - i, config.truncate),
-        })
         .collect()
 }
 

@@ -22,7 +22,7 @@ use super::two_view;
 use crate::error::{Error, Result};
 use crate::features::Detector;
 use crate::image::Frame;
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// Wall-clock split of one frame, milliseconds.
 #[derive(Clone, Copy, Debug, Default, Serialize)]

@@ -7,7 +7,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// The relative motion of the second camera: a point X₀ in the first camera's frame is at
 /// X₁ = R·X₀ + t in the second's, with |t| = 1.

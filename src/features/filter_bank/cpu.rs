@@ -5,9 +5,10 @@
 
 use rayon::prelude::*;
 
+use super::basis_filters;
 use crate::features::config::DetectorConfig;
 use crate::features::convolve::convolve_separable;
-use crate::features::steerable::{basis_filters, orientations, steering_coefficients};
+use crate::features::steerable::{orientations, steering_coefficients};
 
 /// Steering coefficients of every orientation, layout `[θ][basis]`.
 pub fn steering_table(config: &DetectorConfig) -> Vec<f32> {

@@ -23,9 +23,9 @@ impl PipelineSet for SteerPipeline {
         Self(single_main(device, SHADERS[0]))
     }
 }
+use super::basis_filters;
 use crate::error::Result;
 use crate::features::filter_bank::steering_table;
-use crate::features::steerable::basis_filters;
 use crate::features::DetectorConfig;
 
 gpu_struct! {

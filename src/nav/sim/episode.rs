@@ -13,7 +13,7 @@ use crate::nav::controller::{Command, Controller, LaserScan};
 use crate::nav::dnf::{FieldBatch, FieldConfig};
 use crate::nav::gist::GistEngine;
 use crate::nav::stimulus::{angle_diff, StimulusConfig};
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// Which sensors drive the field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

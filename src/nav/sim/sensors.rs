@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::world::World;
 use crate::error::{Error, Result};
 use crate::image::Frame;
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// LIDAR parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

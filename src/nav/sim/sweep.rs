@@ -15,7 +15,7 @@ use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::nav::dnf::Interaction;
 use crate::nav::gist::GistEngine;
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// The parameters a candidate sets.
 #[derive(Clone, Debug, PartialEq, Serialize)]

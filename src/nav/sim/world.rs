@@ -8,7 +8,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, Error, Result};
-use crate::synth::Rng;
+use crate::rng::Rng;
 
 /// An obstacle's footprint.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
