@@ -136,3 +136,34 @@ fn descriptors_on_a_blurred_plane_match_the_cpu_twin() {
         points.len()
     );
 }
+
+#[test]
+fn planes_and_points_that_do_not_fit_are_refused() {
+    let Some(ctx) = common::gpu() else {
+        return;
+    };
+    use steernav::features::steered::gpu::Plane;
+    let gray = vec![0.5f32; 64 * 48];
+    let plane = Plane {
+        gray: &gray,
+        width: 64,
+        height: 48,
+        prior_blur: 0.0,
+    };
+    let steered = GpuSteered::new(ctx);
+    // A point naming a plane that is not there.
+    let e = steered
+        .describe_planes(&[plane], &[(1, (10.0, 10.0, 1.0))])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("plane") && e.contains("past the 1 given"), "{e}");
+    // A plane whose size is not its pixel count.
+    let wrong = Plane { width: 65, ..plane };
+    let e = steered
+        .describe_planes(&[wrong], &[(0, (10.0, 10.0, 1.0))])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("65x48"), "{e}");
+    // No point: nothing to do, no error.
+    assert!(steered.describe_planes(&[plane], &[]).unwrap().is_empty());
+}

@@ -431,3 +431,18 @@ impl Detector {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_cpu_backend_resolves_to_no_context_and_results_name_it() {
+        assert!(Backend::Cpu.resolve().unwrap().is_none());
+        assert_eq!(Backend::of(None), Backend::Cpu);
+        let detector = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+        assert_eq!(detector.backend(), Backend::Cpu);
+        let frame = crate::synth::textured_scene(96, 64, 2);
+        assert_eq!(detector.detect(&frame).unwrap().backend.as_str(), "cpu");
+    }
+}
