@@ -19,6 +19,22 @@ pub(crate) fn register_font() {
     });
 }
 
+/// Registers the font and creates the figure's folder; the closure turns a drawing error into
+/// one naming the file.
+fn prepare_figure(path: &Path) -> Result<impl Fn(String) -> Error + '_> {
+    register_font();
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    Ok(move |e: String| Error::Io {
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })
+}
+
 const COLOURS: [RGBColor; 12] = [
     RGBColor(220, 30, 30),
     RGBColor(30, 90, 220),
@@ -54,17 +70,7 @@ pub fn metrics_figure(
     title: &str,
     x_label: &str,
 ) -> Result<()> {
-    register_font();
-    let err = |e: String| Error::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e),
-    };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
+    let err = prepare_figure(path)?;
     let (x0, x1) = rows
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
@@ -133,17 +139,7 @@ pub fn mma_figure(
     summaries: &[crate::eval::matching::MatchingSummary],
     title: &str,
 ) -> Result<()> {
-    register_font();
-    let err = |e: String| Error::Io {
-        path: path.to_path_buf(),
-        source: std::io::Error::other(e),
-    };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
-    }
+    let err = prepare_figure(path)?;
     let root = BitMapBackend::new(path, (800, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
     let mut chart = ChartBuilder::on(&root)

@@ -69,17 +69,8 @@ pub fn mutual_ratio_matches(a: &KeypointSet, b: &KeypointSet, ratio: f64) -> Vec
         (0..from.points.len())
             .into_par_iter()
             .map(|i| {
-                let (mut best, mut second) = ((usize::MAX, f64::INFINITY), f64::INFINITY);
-                for j in 0..to.points.len() {
-                    let d = from.descriptors.distance(i, &to.descriptors, j);
-                    if d < best.1 {
-                        second = best.1;
-                        best = (j, d);
-                    } else if d < second {
-                        second = d;
-                    }
-                }
-                (best.0 != usize::MAX && best.1 < ratio * second).then_some(best.0)
+                from.descriptors
+                    .nearest(i, &to.descriptors, 0..to.points.len(), ratio)
             })
             .collect()
     };

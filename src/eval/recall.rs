@@ -38,6 +38,29 @@ impl Descriptors {
         }
     }
 
+    /// The nearest of `candidates` (indices into `other`) to descriptor `i` of `self`, when it
+    /// passes Lowe's ratio test against the second nearest (a lone candidate passes).
+    pub fn nearest(
+        &self,
+        i: usize,
+        other: &Self,
+        candidates: impl IntoIterator<Item = usize>,
+        ratio: f64,
+    ) -> Option<usize> {
+        let (mut best, mut second) = ((f64::INFINITY, usize::MAX), f64::INFINITY);
+        for j in candidates {
+            let d = self.distance(i, other, j);
+            if d < best.0 {
+                second = best.0;
+                best = (d, j);
+            } else if d < second {
+                second = d;
+            }
+        }
+        (best.1 != usize::MAX && (best.0 < ratio * second || second == f64::INFINITY))
+            .then_some(best.1)
+    }
+
     /// Distance between descriptor `i` of `self` and descriptor `j` of `other` (same kind).
     pub fn distance(&self, i: usize, other: &Self, j: usize) -> f64 {
         match (self, other) {
@@ -107,22 +130,14 @@ pub fn recall(
     let mut correct = vec![false; a.points.len()];
     let mut tp = 0;
     for &i in &c.inside1 {
-        let mut best = (f64::INFINITY, usize::MAX);
-        let mut second = f64::INFINITY;
-        for &j in &c.inside2 {
-            let d = a.descriptors.distance(i, &b.descriptors, j);
-            if d < best.0 {
-                second = best.0;
-                best = (d, j);
-            } else if d < second {
-                second = d;
-            }
-        }
-        if best.1 == usize::MAX || !(best.0 < ratio * second || second == f64::INFINITY) {
+        let Some(j) = a
+            .descriptors
+            .nearest(i, &b.descriptors, c.inside2.iter().copied(), ratio)
+        else {
             continue;
-        }
+        };
         let q = project(h, a.points[i].0, a.points[i].1).expect("inside points project");
-        let p = b.points[best.1];
+        let p = b.points[j];
         if (q.0 - p.0).powi(2) + (q.1 - p.1).powi(2) <= eps * eps {
             tp += 1;
             correct[i] = true;

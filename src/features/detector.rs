@@ -204,17 +204,23 @@ impl Detector {
     /// Harris candidates of a frame, sorted strongest first, with the threshold used, the
     /// backend that ran and its stage timings.
     pub fn candidates(&self, frame: &Frame) -> Result<HarrisRun> {
+        self.run_harris(frame).map(|(run, _)| run)
+    }
+
+    /// The Harris stage, and the CPU pyramid when the CPU ran it (the descriptors reuse it).
+    fn run_harris<'f>(&self, frame: &'f Frame) -> Result<(HarrisRun, Option<Pyramid<'f>>)> {
         crate::image::check_size("image", frame.width, frame.height)?;
         if let Some(g) = &self.gpu {
             match g.candidates(&frame.gray, frame.width, frame.height) {
                 Ok((candidates, threshold, gpu)) => {
-                    return Ok(HarrisRun {
+                    let run = HarrisRun {
                         candidates,
                         threshold,
                         backend: Backend::Gpu,
                         gpu,
                         cpu: None,
-                    })
+                    };
+                    return Ok((run, None));
                 }
                 Err(Error::GpuLimit(msg)) if self.fallback => {
                     log::warn!("{msg}; this image goes to the CPU backend");
@@ -222,14 +228,21 @@ impl Detector {
                 Err(e) => return Err(e),
             }
         }
-        Ok(self.cpu_candidates(frame))
+        let pyramid = self.pyramid(frame);
+        Ok((self.cpu_candidates(&pyramid), Some(pyramid)))
     }
 
     /// Keypoints with descriptors of one frame.
     pub fn detect(&self, frame: &Frame) -> Result<Detection> {
         let t0 = Instant::now();
-        let run = self.candidates(frame)?;
-        self.complete(frame, run, t0)
+        let (run, pyramid) = self.run_harris(frame)?;
+        self.complete(frame, run, t0, pyramid.as_ref())
+    }
+
+    /// The pyramid of a frame with the plan's kernels.
+    fn pyramid<'f>(&self, frame: &'f Frame) -> Pyramid<'f> {
+        let (w, h) = (frame.width as usize, frame.height as usize);
+        Pyramid::new(&frame.gray, w, h, &self.plan.pyramid)
     }
 
     /// Detects on a stream of frames, in order, with two frames in flight on the GPU: the
@@ -272,14 +285,15 @@ impl Detector {
                     gpu,
                     cpu: None,
                 });
-            let run = match run {
+            let result = match run {
                 Err(Error::GpuLimit(msg)) if self.fallback => {
                     log::warn!("{msg}; this image goes to the CPU backend");
-                    Ok(self.cpu_candidates(&frame))
+                    let pyramid = self.pyramid(&frame);
+                    let run = self.cpu_candidates(&pyramid);
+                    self.complete(&frame, run, t0, Some(&pyramid))
                 }
-                other => other,
+                other => other.and_then(|run| self.complete(&frame, run, t0, None)),
             };
-            let result = run.and_then(|run| self.complete(&frame, run, t0));
             (tag, result.map(|d| (frame, d)))
         };
         let mut waiting: Option<Waiting<T>> = None;
@@ -310,11 +324,9 @@ impl Detector {
         }
     }
 
-    /// The CPU Harris stage on a frame, as a [`HarrisRun`].
-    fn cpu_candidates(&self, frame: &Frame) -> HarrisRun {
-        let (candidates, threshold, cpu) =
-            self.cpu
-                .candidates(&frame.gray, frame.width as usize, frame.height as usize);
+    /// The CPU Harris stage on a frame's pyramid, as a [`HarrisRun`].
+    fn cpu_candidates(&self, pyramid: &Pyramid) -> HarrisRun {
+        let (candidates, threshold, cpu) = self.cpu.candidates_on(pyramid);
         HarrisRun {
             candidates,
             threshold,
@@ -331,9 +343,16 @@ impl Detector {
         frame: &Frame,
         backend: Backend,
         keypoints: &mut [Keypoint],
+        pyramid: Option<&Pyramid>,
     ) -> Result<()> {
-        let (w, h) = (frame.width as usize, frame.height as usize);
-        let pyramid = Pyramid::new(&frame.gray, w, h, &self.plan.pyramid);
+        let built;
+        let pyramid = match pyramid {
+            Some(p) => p,
+            None => {
+                built = self.pyramid(frame);
+                &built
+            }
+        };
         let top = pyramid.levels() as u32 - 1;
         let on_level = |k: &Keypoint| {
             let level = descriptor_level(k.scale).min(top);
@@ -376,7 +395,13 @@ impl Detector {
     }
 
     /// Merge and descriptors after the Harris stage; `t0` is when the frame's Harris began.
-    fn complete(&self, frame: &Frame, run: HarrisRun, t0: Instant) -> Result<Detection> {
+    fn complete(
+        &self,
+        frame: &Frame,
+        run: HarrisRun,
+        t0: Instant,
+        pyramid: Option<&Pyramid>,
+    ) -> Result<Detection> {
         let HarrisRun {
             candidates,
             threshold,
@@ -406,7 +431,7 @@ impl Detector {
         // Descriptors on the backend that found the candidates; a steered descriptor is read
         // on the pyramid level where its window has a few pixels per cell.
         if kind == DescriptorKind::Steered {
-            self.describe_steered(frame, backend, &mut keypoints)?;
+            self.describe_steered(frame, backend, &mut keypoints, pyramid)?;
         } else {
             keypoints.par_iter_mut().for_each(|k| {
                 k.descriptor = describe(frame, k.x, k.y).to_vec();

@@ -259,9 +259,14 @@ impl ScaleGrids {
         cell: impl Fn(usize) -> f32,
     ) -> Self {
         let count = plan.scales.len();
-        let grids = (0..count)
-            .map(|s| {
-                let members: Vec<usize> = (0..points.len()).filter(|&i| scales[i] == s).collect();
+        let mut members: Vec<Vec<usize>> = vec![Vec::new(); count];
+        for (i, &s) in scales.iter().enumerate() {
+            members[s].push(i);
+        }
+        let grids = members
+            .into_iter()
+            .enumerate()
+            .map(|(s, members)| {
                 if members.is_empty() {
                     return None;
                 }

@@ -131,6 +131,18 @@ impl CpuHarris {
         width: usize,
         height: usize,
     ) -> (Vec<Candidate>, f32, CpuTimings) {
+        let t0 = std::time::Instant::now();
+        let pyramid = Pyramid::new(gray, width, height, &self.plan.pyramid);
+        let built = t0.elapsed();
+        let (found, threshold, mut timings) = self.candidates_on(&pyramid);
+        timings.responses_ms += built.as_secs_f64() * 1e3;
+        (found, threshold, timings)
+    }
+
+    /// [`Self::candidates`] on a frame whose pyramid is already built (with this plan's
+    /// kernels), so that the detector's descriptors read the same levels.
+    pub fn candidates_on(&self, pyramid: &Pyramid) -> (Vec<Candidate>, f32, CpuTimings) {
+        let (_, width, height) = pyramid.level(0);
         let plan = &self.plan;
         let taken = self.bands.lock().unwrap_or_else(|e| e.into_inner()).pop();
         let mut bands =
@@ -162,9 +174,6 @@ impl CpuHarris {
         // final threshold is at least it (see `overflows`).
         let mut capacity_floor = f32::NEG_INFINITY;
         let mut found: Vec<Candidate> = Vec::new();
-        let t_pyramid = std::time::Instant::now();
-        let pyramid = Pyramid::new(gray, width, height, &plan.pyramid);
-        responses_time += t_pyramid.elapsed();
         for y0 in (0..height).step_by(band_rows) {
             let y1 = (y0 + band_rows).min(height);
             let t0 = std::time::Instant::now();
@@ -178,7 +187,7 @@ impl CpuHarris {
                 band.data
                     .resize(band.rows * gw * plan.orientations.len(), 0.0);
                 let peak =
-                    scale_responses(plan, &self.terms, s, &pyramid, first..last, &mut band.data);
+                    scale_responses(plan, &self.terms, s, pyramid, first..last, &mut band.data);
                 strongest = strongest.max(peak);
             }
             let t1 = std::time::Instant::now();

@@ -449,12 +449,7 @@ impl GpuHarris {
             let (lw, lh) = super::plan::level_size(w, h, l);
             (lw as u32, lh as u32)
         };
-        let levels: Vec<wgpu::Buffer> = (1..plan.levels() as u32)
-            .map(|l| {
-                let (lw, lh) = level_dims(l);
-                storage(device, "pyramid level", lw as u64 * lh as u64 * 4)
-            })
-            .collect();
+        let (levels, pyramid) = self.pyramid_resources(width, height, &gray, &tmp);
         let level_buffer = |l: u32| {
             if l == 0 {
                 &gray
@@ -462,54 +457,6 @@ impl GpuHarris {
                 &levels[l as usize - 1]
             }
         };
-        // Level l into level l + 1: blurred columns at every second row into `tmp`, then
-        // blurred rows at every second column into the next level.
-        let pyramid: Vec<PyramidGroups> = self
-            .pyramid_kernels
-            .iter()
-            .enumerate()
-            .map(|(l, k)| {
-                let (lw, lh) = level_dims(l as u32);
-                let columns = Dims::pass(lw, lh, 2, false);
-                let rows = Dims::pass(lw, columns.dst_height, 2, true);
-                let job = storage_init(
-                    device,
-                    "pyramid job",
-                    &[Job {
-                        src: 0,
-                        dst: 0,
-                        taps: k.offset,
-                        radius: k.radius,
-                    }],
-                );
-                PyramidGroups {
-                    column_groups: groups_2d(lw, columns.dst_height),
-                    row_groups: groups_2d(rows.dst_width, rows.dst_height),
-                    columns: bind(
-                        device,
-                        &pipes.convolve_columns,
-                        &[
-                            &uniform(device, "pyramid column dims", &columns),
-                            &job,
-                            &self.taps,
-                            level_buffer(l as u32),
-                            &tmp,
-                        ],
-                    ),
-                    rows: bind(
-                        device,
-                        &pipes.convolve_rows,
-                        &[
-                            &uniform(device, "pyramid row dims", &rows),
-                            &job,
-                            &self.taps,
-                            &tmp,
-                            level_buffer(l as u32 + 1),
-                        ],
-                    ),
-                }
-            })
-            .collect();
         let prod = storage(device, "products", plane * 4 * products as u64);
         let grids: Vec<(u32, u32)> = plan
             .grids(width as usize, height as usize)
@@ -754,6 +701,84 @@ impl GpuHarris {
             slot,
             scales,
         }
+    }
+
+    /// The pyramid levels above `gray` (a `width`×`height` plane) and the bind groups that
+    /// build them: level l into level l + 1, blurred columns at every second row into `tmp`,
+    /// then blurred rows at every second column into the next level.
+    fn pyramid_resources(
+        &self,
+        width: u32,
+        height: u32,
+        gray: &wgpu::Buffer,
+        tmp: &wgpu::Buffer,
+    ) -> (Vec<wgpu::Buffer>, Vec<PyramidGroups>) {
+        let device = &self.ctx.device;
+        let pipes = self.ctx.pipelines::<HarrisPipelines>();
+        let level_dims = |l: u32| {
+            let (lw, lh) = super::plan::level_size(width as usize, height as usize, l);
+            (lw as u32, lh as u32)
+        };
+        let levels: Vec<wgpu::Buffer> = (1..self.plan.levels() as u32)
+            .map(|l| {
+                let (lw, lh) = level_dims(l);
+                storage(device, "pyramid level", lw as u64 * lh as u64 * 4)
+            })
+            .collect();
+        let level_buffer = |l: u32| {
+            if l == 0 {
+                gray
+            } else {
+                &levels[l as usize - 1]
+            }
+        };
+        let groups = self
+            .pyramid_kernels
+            .iter()
+            .enumerate()
+            .map(|(l, k)| {
+                let (lw, lh) = level_dims(l as u32);
+                let columns = Dims::pass(lw, lh, 2, false);
+                let rows = Dims::pass(lw, columns.dst_height, 2, true);
+                let job = storage_init(
+                    device,
+                    "pyramid job",
+                    &[Job {
+                        src: 0,
+                        dst: 0,
+                        taps: k.offset,
+                        radius: k.radius,
+                    }],
+                );
+                PyramidGroups {
+                    column_groups: groups_2d(lw, columns.dst_height),
+                    row_groups: groups_2d(rows.dst_width, rows.dst_height),
+                    columns: bind(
+                        device,
+                        &pipes.convolve_columns,
+                        &[
+                            &uniform(device, "pyramid column dims", &columns),
+                            &job,
+                            &self.taps,
+                            level_buffer(l as u32),
+                            tmp,
+                        ],
+                    ),
+                    rows: bind(
+                        device,
+                        &pipes.convolve_rows,
+                        &[
+                            &uniform(device, "pyramid row dims", &rows),
+                            &job,
+                            &self.taps,
+                            tmp,
+                            level_buffer(l as u32 + 1),
+                        ],
+                    ),
+                }
+            })
+            .collect();
+        (levels, groups)
     }
 
     /// Records the filter, tensor and response passes of every scale (up to scale `last`,
