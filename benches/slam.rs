@@ -25,7 +25,7 @@ fn filter_with(landmarks: usize, euclidean: bool) -> Filter {
 }
 
 fn observations(f: &Filter, count: usize) -> Vec<Observation> {
-    let stride = f.slots.len() / count;
+    let stride = f.slots().len() / count;
     (0..count)
         .map(|i| {
             let slot = i * stride;

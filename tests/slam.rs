@@ -63,7 +63,7 @@ fn constant_velocity_filter_converges_on_the_generated_sequence() {
     assert!(error.ate_rmse < 0.03 * length, "{error:?}");
     assert_eq!(lost, 0, "tracking must not be lost on a textured room");
     assert!(slam.map().len() >= 15);
-    assert_covariance_is_consistent(&slam.filter().p);
+    assert_covariance_is_consistent(slam.filter().covariance());
 }
 
 /// Drives the generated car path and returns (frames lost, ATE as a share of the path).
@@ -89,7 +89,7 @@ fn drive(config: SyntheticConfig) -> (usize, f64) {
         100.0 * error.ate_rmse / length
     );
     assert!(length > 50.0, "a car-like path: {length} m");
-    assert_covariance_is_consistent(&slam.filter().p);
+    assert_covariance_is_consistent(slam.filter().covariance());
     (lost, error.ate_rmse / length)
 }
 
@@ -150,7 +150,7 @@ fn a_car_waiting_before_it_drives_off_is_tracked() {
     assert_eq!(lost, 0, "no frame may be lost");
     // 0.50% with the re-seating; 1.09% when the filter goes on from its depthless start.
     assert!(error.ate_rmse <= 0.008 * length, "{error:?}");
-    assert_covariance_is_consistent(&slam.filter().p);
+    assert_covariance_is_consistent(slam.filter().covariance());
 }
 
 #[test]
@@ -204,7 +204,7 @@ fn odometry_filter_recovers_metric_scale() {
         "odometry fixes the scale: {error:?}"
     );
     assert!(error.ate_rmse < 0.03 * error.path_length, "{error:?}");
-    assert_covariance_is_consistent(&slam.filter().p);
+    assert_covariance_is_consistent(slam.filter().covariance());
 }
 
 #[test]

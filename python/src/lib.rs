@@ -467,34 +467,10 @@ impl Slam {
     }
 }
 
-/// Covariance of (position, rotation vector) from the filter's (position, quaternion) block:
-/// J P Jᵀ with δθ = 2 Im(q* ⊗ δq).
+/// Covariance of (position, rotation vector), 6×6.
 fn pose_covariance(slam: &CoreSlam) -> Array2<f64> {
-    let f = slam.filter();
-    let q = [f.x[3], f.x[4], f.x[5], f.x[6]];
-    let (w, v) = (q[0], [q[1], q[2], q[3]]);
-    let mut j = [[0.0f64; 7]; 6];
-    for (i, row) in j.iter_mut().enumerate().take(3) {
-        row[i] = 1.0;
-    }
-    // Rows 3..6: 2·[−v | w·I − [v]×].
-    let skew = [[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]];
-    for r in 0..3 {
-        j[3 + r][3] = -2.0 * v[r];
-        for c in 0..3 {
-            let identity = if r == c { w } else { 0.0 };
-            j[3 + r][4 + c] = 2.0 * (identity - skew[r][c]);
-        }
-    }
-    Array2::from_shape_fn((6, 6), |(a, b)| {
-        let mut sum = 0.0;
-        for k in 0..7 {
-            for l in 0..7 {
-                sum += j[a][k] * f.p[(k, l)] * j[b][l];
-            }
-        }
-        sum
-    })
+    let p = slam.filter().pose_covariance();
+    Array2::from_shape_fn((6, 6), |(a, b)| p[(a, b)])
 }
 
 /// The neural-field navigation controller of one robot.

@@ -19,7 +19,6 @@ use steernav::Frame;
 use crate::args::{progress, DetectorArgs};
 
 /// The columns of `--report`.
-const REPORT_HEADER: &str = "timestamp,predicted,matched,descriptor_rejected,inliers,rescued,created,deleted,converted,landmarks,state_dim,lost,relocalised,initialising,detection_ms,association_ms,filter_ms,total_ms";
 
 #[derive(Args)]
 pub struct SlamCmd {
@@ -200,7 +199,7 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let mut report = match &cmd.report {
         Some(path) => {
             let mut f = csv::Writer::from_path(path).with_context(|| out_err(path))?;
-            f.write_record(REPORT_HEADER.split(','))
+            f.write_record(FrameReport::CSV_HEADER)
                 .with_context(|| out_err(path))?;
             Some((path.clone(), f))
         }
@@ -288,26 +287,8 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         writeln!(traj, "{line}").with_context(|| out_err(&traj_path))?;
         traj.flush().with_context(|| out_err(&traj_path))?;
         if let Some((path, f)) = &mut report {
-            let t = &r.timings;
-            let counts = [
-                r.predicted,
-                r.matched,
-                r.descriptor_rejected,
-                r.inliers,
-                r.rescued,
-                r.created,
-                r.deleted,
-                r.converted,
-                r.landmarks,
-                r.state_dim,
-            ];
-            let flags = [r.lost, r.relocalised, r.initialising];
-            let times = [t.detection_ms, t.association_ms, t.filter_ms, t.total_ms];
-            let row = std::iter::once(format!("{:.6}", r.timestamp))
-                .chain(counts.iter().map(|c| c.to_string()))
-                .chain(flags.iter().map(|f| f.to_string()))
-                .chain(times.iter().map(|ms| format!("{ms:.3}")));
-            f.write_record(row).with_context(|| out_err(path))?;
+            let row = r.csv_record();
+            f.write_record(&row).with_context(|| out_err(path))?;
             // Flushed every frame: a killed run leaves whole rows up to its last frame.
             f.flush().with_context(|| out_err(path))?;
         }

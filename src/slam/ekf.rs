@@ -10,7 +10,7 @@
 //! mirror are the same sum of the same products), and the Cholesky factor makes it the
 //! numerically stable form of eq 24's (I − K H) P.
 
-use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix6, SMatrix, Vector2, Vector3};
 
 use super::camera::PinholeCamera;
 use super::inverse_depth::{self, Parametrisation, Prediction};
@@ -47,22 +47,36 @@ pub enum UpdateError {
     NotPositiveDefinite,
 }
 
-/// The filter: state, covariance and landmark slots.
+/// The filter: state, covariance and landmark slots. Outside `slam` they are read only, through
+/// the accessors; the tracker changes them through the filter's own operations.
 #[derive(Clone, Debug)]
 pub struct Filter {
-    /// The camera model.
-    pub camera: PinholeCamera,
-    /// The motion model.
-    pub motion: MotionModel,
-    /// State vector.
-    pub x: DVector<f64>,
-    /// Covariance.
-    pub p: DMatrix<f64>,
-    /// Landmarks in state order.
-    pub slots: Vec<Slot>,
+    pub(in crate::slam) camera: PinholeCamera,
+    pub(in crate::slam) motion: MotionModel,
+    pub(in crate::slam) x: DVector<f64>,
+    pub(in crate::slam) p: DMatrix<f64>,
+    pub(in crate::slam) slots: Vec<Slot>,
     /// Pixel noise standard deviation (R = σ² I per observation).
-    pub pixel_sigma: f64,
+    pixel_sigma: f64,
     next_id: u64,
+}
+
+/// Where the two-view start puts the camera, with the variances it gives each part: the
+/// filter is seated there and the camera's old correlations are dropped.
+#[derive(Clone, Debug)]
+pub(in crate::slam) struct Seat {
+    pub position: Vector3<f64>,
+    pub orientation: Quat,
+    /// Variance of each position coordinate, m².
+    pub position_variance: f64,
+    /// Variance of each quaternion entry.
+    pub orientation_variance: f64,
+    /// Linear velocity, m/s, and the variance of each coordinate (constant velocity only).
+    pub velocity: Vector3<f64>,
+    pub velocity_variance: f64,
+    /// Angular velocity, rad/s, and the variance of each coordinate (constant velocity only).
+    pub angular_velocity: Vector3<f64>,
+    pub angular_velocity_variance: f64,
 }
 
 /// The pose entries (r, q) are the first 7 of the camera state in every motion model.
@@ -105,6 +119,89 @@ impl Filter {
     /// State dimension.
     pub fn dim(&self) -> usize {
         self.x.len()
+    }
+
+    /// The state vector x (eq 14): camera, then the landmarks in slot order.
+    pub fn state(&self) -> &DVector<f64> {
+        &self.x
+    }
+
+    /// The covariance P of the state.
+    pub fn covariance(&self) -> &DMatrix<f64> {
+        &self.p
+    }
+
+    /// The landmarks, in state order.
+    pub fn slots(&self) -> &[Slot] {
+        &self.slots
+    }
+
+    /// The camera model.
+    pub fn camera(&self) -> &PinholeCamera {
+        &self.camera
+    }
+
+    /// The motion model.
+    pub fn motion(&self) -> &MotionModel {
+        &self.motion
+    }
+
+    /// Puts the camera at `seat`: its entries of x are replaced, its rows and columns of P
+    /// are cleared (the old map's correlations with the camera no longer hold) and given the
+    /// seat's variances.
+    pub(in crate::slam) fn seat(&mut self, seat: &Seat) {
+        let c = self.motion.camera_dim();
+        let n = self.dim();
+        self.x.as_mut_slice()[0..3].copy_from_slice(seat.position.as_slice());
+        self.x.as_mut_slice()[3..7].copy_from_slice(seat.orientation.as_slice());
+        self.p.view_mut((0, 0), (c, n)).fill(0.0);
+        self.p.view_mut((0, 0), (n, c)).fill(0.0);
+        for i in 0..3 {
+            self.p[(i, i)] = seat.position_variance;
+        }
+        for i in 3..POSE {
+            self.p[(i, i)] = seat.orientation_variance;
+        }
+        if c == 13 {
+            self.x.as_mut_slice()[7..10].copy_from_slice(seat.velocity.as_slice());
+            self.x.as_mut_slice()[10..13].copy_from_slice(seat.angular_velocity.as_slice());
+            for i in 7..10 {
+                self.p[(i, i)] = seat.velocity_variance;
+                self.p[(i + 3, i + 3)] = seat.angular_velocity_variance;
+            }
+        }
+    }
+
+    /// Drops the correlations between the camera and the map, keeping both marginals: the
+    /// pose is about to be measured afresh against the map (relocalisation).
+    pub(in crate::slam) fn decorrelate_camera(&mut self) {
+        let c = self.motion.camera_dim();
+        let n = self.dim();
+        if n > c {
+            self.p.view_mut((0, c), (c, n - c)).fill(0.0);
+            self.p.view_mut((c, 0), (n - c, c)).fill(0.0);
+        }
+    }
+
+    /// Covariance of the pose as (position, rotation vector), 6×6: J P Jᵀ over the (r, q)
+    /// block, with δθ = 2 Im(q* ⊗ δq).
+    pub fn pose_covariance(&self) -> Matrix6<f64> {
+        let (w, v) = (self.x[3], Vector3::new(self.x[4], self.x[5], self.x[6]));
+        let mut j = SMatrix::<f64, 6, POSE>::zeros();
+        for i in 0..3 {
+            j[(i, i)] = 1.0;
+        }
+        // Rows 3..6: 2·[−v | w·I − [v]×].
+        let skew = v.cross_matrix();
+        for r in 0..3 {
+            j[(3 + r, 3)] = -2.0 * v[r];
+            for c in 0..3 {
+                let identity = if r == c { w } else { 0.0 };
+                j[(3 + r, 4 + c)] = 2.0 * (identity - skew[(r, c)]);
+            }
+        }
+        let block = self.p.fixed_view::<POSE, POSE>(0, 0);
+        j * block * j.transpose()
     }
 
     /// Camera position r.

@@ -1,0 +1,292 @@
+//! The start-up of a monocular session: keypoints followed by KLT from a reference frame until
+//! two views fix the motion (the essential matrix, then landmarks at triangulated depths), or
+//! the paper's own start at rest (eq 13's prior depth) when the camera does not move.
+
+use std::time::Instant;
+
+use nalgebra::{Vector2, Vector3};
+use rayon::prelude::*;
+
+use super::report::{FrameReport, SlamTimings};
+use super::{ms, Slam};
+use crate::error::Result;
+use crate::features::Detector;
+use crate::image::Frame;
+use crate::slam::ekf::Seat;
+use crate::slam::klt::{self, KltParams, Pyramid};
+use crate::slam::rotation::{self, Quat};
+use crate::slam::two_view;
+
+/// Where a session is in its start.
+#[derive(Clone, Debug)]
+pub(super) enum Phase {
+    /// No map yet: points are followed from a reference frame (none before the first frame)
+    /// until the two views determine the motion. Frames are reported `initialising`.
+    Starting(Option<Bootstrap>),
+    /// Started at rest: the map has bearings but no depths. The start-up points are still
+    /// followed, to seat the filter again once the camera moves.
+    AtRest(Bootstrap),
+    /// The map is seated; every frame is tracked against it.
+    Tracking,
+}
+
+/// Points followed by KLT from a reference frame, for the two-view start.
+#[derive(Clone, Debug)]
+pub(super) struct Bootstrap {
+    /// Timestamp of the reference frame.
+    timestamp: f64,
+    /// Camera pose at the reference frame.
+    position: Vector3<f64>,
+    orientation: Quat,
+    /// Pixels in the reference frame and where KLT has followed them to.
+    start: Vec<Vector2<f64>>,
+    current: Vec<Vector2<f64>>,
+}
+
+impl Slam {
+    fn reference(&self) -> Option<&Bootstrap> {
+        match &self.phase {
+            Phase::Starting(b) => b.as_ref(),
+            Phase::AtRest(b) => Some(b),
+            Phase::Tracking => None,
+        }
+    }
+
+    fn reference_mut(&mut self) -> Option<&mut Bootstrap> {
+        match &mut self.phase {
+            Phase::Starting(b) => b.as_mut(),
+            Phase::AtRest(b) => Some(b),
+            Phase::Tracking => None,
+        }
+    }
+
+    /// Start-up: follows keypoints from a reference frame until the two views determine the
+    /// motion, then seats the filter there — pose, velocity, angular velocity, and landmarks
+    /// at their triangulated depths.
+    pub(super) fn initialise(
+        &mut self,
+        frame: &Frame,
+        timestamp: f64,
+        detector: &Detector,
+        previous: Option<&Pyramid>,
+        pyramid: &Pyramid,
+        start: Instant,
+    ) -> Result<FrameReport> {
+        let mut timings = SlamTimings::default();
+        let mut created = 0;
+        let t = Instant::now();
+        let (followed, _) = self.follow_bootstrap(previous, pyramid);
+        timings.association_ms = ms(t);
+        if followed >= MIN_BOOTSTRAP_POINTS {
+            let t = Instant::now();
+            created = self.try_seat(frame, timestamp);
+            timings.filter_ms = ms(t);
+        }
+        let at_rest = matches!(&self.phase, Phase::Starting(Some(b))
+            if followed >= MIN_BOOTSTRAP_POINTS
+                && timestamp - b.timestamp >= STATIONARY_START_AFTER);
+        if at_rest {
+            // The points stay put: the camera is (nearly) at rest, which is the paper's own
+            // start — the filter at rest, landmarks at the inverse-depth prior. The points
+            // stay followed, to seat the filter again once it moves (`follow_rest_start`).
+            if let Phase::Starting(Some(b)) = std::mem::replace(&mut self.phase, Phase::Tracking) {
+                self.phase = Phase::AtRest(b);
+            }
+            let (n, detection_ms, creation_ms) = self.create_landmarks(frame, detector, None)?;
+            created = n;
+            timings.detection_ms = detection_ms;
+            timings.filter_ms += creation_ms;
+        }
+        if matches!(self.phase, Phase::Starting(_)) && followed < MIN_BOOTSTRAP_POINTS {
+            let t = Instant::now();
+            self.restart_bootstrap(pyramid, timestamp);
+            timings.detection_ms = ms(t);
+        }
+        timings.total_ms = ms(start);
+        let initialising = matches!(self.phase, Phase::Starting(_));
+        Ok(self.report(timestamp, timings, created, initialising))
+    }
+
+    /// Starts the two-view reference at this frame: Shi–Tomasi corners of `pyramid`, at the
+    /// filter's current pose.
+    fn restart_bootstrap(&mut self, pyramid: &Pyramid, timestamp: f64) {
+        let margin = KltParams::default().half_window + 2;
+        let points = klt::good_features(pyramid, [16, 12], 2, margin);
+        let reference = Bootstrap {
+            timestamp,
+            position: self.filter.position(),
+            orientation: self.filter.orientation(),
+            start: points.clone(),
+            current: points,
+        };
+        self.phase = match &self.phase {
+            Phase::AtRest(_) => Phase::AtRest(reference),
+            _ => Phase::Starting(Some(reference)),
+        };
+    }
+
+    /// Follows the start-up points from `previous` into `current` by KLT, dropping those it
+    /// loses. Returns how many are left and their median displacement in pixels.
+    fn follow_bootstrap(&mut self, previous: Option<&Pyramid>, current: &Pyramid) -> (usize, f64) {
+        let (Some(b), Some(from)) = (self.reference_mut(), previous) else {
+            return (0, 0.0);
+        };
+        let params = KltParams::default();
+        let moved: Vec<Option<Vector2<f64>>> = b
+            .current
+            .par_iter()
+            .map(|&z| klt::track(from, current, z, z, &params))
+            .collect();
+        let mut kept = 0;
+        let mut displacements = Vec::with_capacity(moved.len());
+        for (i, m) in moved.into_iter().enumerate() {
+            if let Some(z) = m {
+                displacements.push((z - b.current[i]).norm());
+                b.start[kept] = b.start[i];
+                b.current[kept] = z;
+                kept += 1;
+            }
+        }
+        b.start.truncate(kept);
+        b.current.truncate(kept);
+        displacements.sort_by(f64::total_cmp);
+        (kept, displacements.get(kept / 2).copied().unwrap_or(0.0))
+    }
+
+    /// After a start at rest the map has bearings but no depths. The start-up points keep
+    /// being followed from the last frame at rest; once the camera has moved enough for two
+    /// views, the filter is seated again there as if it had started moving — the trajectory
+    /// continues from the pose at rest, and the depthless map is replaced. Returns the
+    /// landmarks created when it seated.
+    pub(super) fn follow_rest_start(
+        &mut self,
+        frame: &Frame,
+        timestamp: f64,
+        previous: Option<&Pyramid>,
+        current: &Pyramid,
+    ) -> Option<usize> {
+        let (followed, median_step) = self.follow_bootstrap(previous, current);
+        if followed < MIN_BOOTSTRAP_POINTS {
+            self.restart_bootstrap(current, timestamp);
+            return None;
+        }
+        let (r, q) = (self.filter.position(), self.filter.orientation());
+        let b = self.reference_mut()?;
+        if median_step < REST_STEP_PIXELS {
+            // Still at rest: the motion, when it comes, starts from here.
+            b.start.clone_from(&b.current);
+            b.timestamp = timestamp;
+            b.position = r;
+            b.orientation = q;
+            return None;
+        }
+        let created = self.try_seat(frame, timestamp);
+        (created > 0).then_some(created)
+    }
+
+    /// Tries the two-view estimate on the followed points; when it is well determined, seats
+    /// the filter and returns the number of landmarks created.
+    fn try_seat(&mut self, frame: &Frame, timestamp: f64) -> usize {
+        let Some(b) = self.reference().cloned() else {
+            return 0;
+        };
+        let cam = self.filter.camera().clone();
+        let normalised = |z: &Vector2<f64>| {
+            let (ray, _) = cam.back_project(*z);
+            ray / ray.z
+        };
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = b
+            .start
+            .iter()
+            .zip(&b.current)
+            .map(|(a, c)| (normalised(a), normalised(c)))
+            .collect();
+        let threshold = self.config.ransac_threshold / cam.fx.max(cam.fy);
+        let Some(pose) = two_view::relative_pose(&pairs, threshold, 2000, &mut self.rng) else {
+            return 0;
+        };
+        let inlier_count = pose.inliers.iter().filter(|&&i| i).count();
+        let mut parallax: Vec<f64> = pose
+            .parallax
+            .iter()
+            .zip(&pose.inliers)
+            .filter(|(_, &i)| i)
+            .map(|(p, _)| *p)
+            .collect();
+        if inlier_count < MIN_BOOTSTRAP_POINTS || 2 * inlier_count < pairs.len() {
+            return 0;
+        }
+        parallax.sort_by(f64::total_cmp);
+        if parallax[3 * parallax.len() / 4] < MIN_BOOTSTRAP_PARALLAX {
+            return 0;
+        }
+        let elapsed = (timestamp - b.timestamp).max(1e-9);
+        let mut inverse_depths: Vec<f64> = pose
+            .depths
+            .iter()
+            .zip(&pose.inliers)
+            .filter(|(_, &i)| i)
+            .map(|(d, _)| 1.0 / d)
+            .collect();
+        inverse_depths.sort_by(f64::total_cmp);
+        let median_rho = inverse_depths[inverse_depths.len() / 2];
+        // Map units per unit of two-view translation: the median landmark lands at the
+        // inverse-depth prior ρ₀, as a landmark started from one view would.
+        let scale = median_rho / self.config.initial_inverse_depth.max(1e-6);
+        let rot0 = rotation::matrix(&b.orientation);
+        // Camera 1 in camera 0's frame: centre −Rᵀt, orientation Rᵀ.
+        let centre = -(pose.rotation.transpose() * pose.translation) * scale;
+        let r = b.position + rot0 * centre;
+        let q = rotation::multiply(
+            &b.orientation,
+            &rotation::from_matrix(&pose.rotation.transpose()),
+        );
+        let velocity = (r - b.position) / elapsed;
+        let omega =
+            rotation::to_rotation_vector(&rotation::from_matrix(&pose.rotation.transpose()))
+                / elapsed;
+        if matches!(self.phase, Phase::AtRest(_)) {
+            // Re-seating after a start at rest: the old landmarks carry no depth.
+            let all: Vec<usize> = (0..self.filter.slots().len()).collect();
+            self.remove(&all);
+        }
+        let baseline = (r - b.position).norm();
+        self.filter.seat(&Seat {
+            position: r,
+            orientation: q,
+            position_variance: (0.05 * baseline).powi(2) + 1e-12,
+            orientation_variance: 1e-6,
+            velocity,
+            velocity_variance: (0.1 * velocity.norm()).powi(2) + self.config.velocity_sigma.powi(2),
+            angular_velocity: omega,
+            angular_velocity_variance: self.config.angular_velocity_sigma.powi(2),
+        });
+        // Landmarks at the triangulated inliers, spread over the grid.
+        let inliers: Vec<(Vector2<f64>, f64, f64)> = (0..pairs.len())
+            .filter(|&i| pose.inliers[i])
+            .map(|i| {
+                let rho = 1.0 / (pose.depths[i] * scale);
+                // Depth from parallax α with one pixel of noise: σ_ρ/ρ ≈ (σ/f)/α.
+                let relative = (self.config.pixel_sigma / cam.fx) / pose.parallax[i].max(1e-6);
+                let sigma = (rho * relative.max(0.1)).min(self.config.inverse_depth_sigma.max(rho));
+                (b.current[i], rho, sigma)
+            })
+            .collect();
+        self.phase = Phase::Tracking;
+        let visible = self.visible_pixels();
+        let limit = (2 * self.config.target_visible).saturating_sub(visible.len());
+        self.add_at_free_cells(frame, &visible, inliers, limit, |_, _| None)
+    }
+}
+
+/// Seconds without enough parallax after which the camera is taken to be at rest and the
+/// filter starts there, as in the paper.
+const STATIONARY_START_AFTER: f64 = 1.0;
+/// Median step of the start-up points between two frames, pixels, under which a camera that
+/// started at rest is taken to be still at rest.
+const REST_STEP_PIXELS: f64 = 0.5;
+/// Fewest points (followed, then inliers) for a two-view estimate.
+const MIN_BOOTSTRAP_POINTS: usize = 20;
+/// Parallax, radians, that a quarter of the inliers must reach for the two views to fix the
+/// depths (about 1°).
+const MIN_BOOTSTRAP_PARALLAX: f64 = 0.017;
