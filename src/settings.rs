@@ -98,11 +98,11 @@ mod tests {
     #[test]
     fn one_file_holds_every_table_and_errors_name_table_and_key() {
         let s = Settings::from_toml_str(
-            "[detector]\norientations = 8\n[slam]\nmax_landmarks = 40\n[gist]\nblocks = 2\n",
+            "[detector]\norientations = 8\n[slam.map]\nmax_landmarks = 40\n[gist]\nblocks = 2\n",
         )
         .unwrap();
         assert_eq!(s.detector.orientations, 8);
-        assert_eq!(s.slam.max_landmarks, 40);
+        assert_eq!(s.slam.map.max_landmarks, 40);
         assert_eq!(s.gist.blocks, 2);
         assert_eq!(s.nav, NavConfig::default());
         assert!(s.has("slam") && !s.has("nav"));
@@ -115,6 +115,11 @@ mod tests {
             text.starts_with("line 2: [slam] max_landmarkz: unknown field"),
             "{text}"
         );
+        // A key of the old flat [slam] table names where it went, with its line.
+        let e = Settings::from_toml_str("[slam]\n\nmax_landmarks = 4\n").unwrap_err();
+        assert_eq!(e.line, Some(3));
+        let text = e.to_string();
+        assert!(text.contains("moved to `slam.map.max_landmarks`"), "{text}");
         let e = Settings::from_toml_str("[detectr]\n")
             .unwrap_err()
             .to_string();

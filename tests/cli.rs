@@ -1,28 +1,18 @@
 //! The command line end to end: detect's JSON and CSV, --out/--draw, batch with a corrupt
 //! file, re-runs that skip finished images, --force, info, --help.
 
-use std::path::Path;
+mod common;
+
 use std::process::Command;
 
-fn steernav() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_steernav"))
-}
-
-fn sample() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/sample.png")
-}
+use common::{assert_ok, run_ok, sample, steernav};
 
 #[test]
 fn detect_prints_the_design_json_for_one_image() {
-    let out = steernav()
-        .args(["detect", "--backend", "cpu", "--max-keypoints", "50"])
-        .arg(sample())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        steernav()
+            .args(["detect", "--backend", "cpu", "--max-keypoints", "50"])
+            .arg(sample()),
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let obj = v.as_object().unwrap();
@@ -73,18 +63,13 @@ fn detect_writes_files_and_pictures_for_several_images() {
     let second = dir.path().join("copy.png");
     std::fs::copy(sample(), &second).unwrap();
     let out_dir = dir.path().join("out");
-    let out = steernav()
-        .args(["detect", "--backend", "cpu", "--csv", "--draw"])
-        .args(["--descriptor", "entropy", "--out"])
-        .arg(&out_dir)
-        .arg(sample())
-        .arg(&second)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        steernav()
+            .args(["detect", "--backend", "cpu", "--csv", "--draw"])
+            .args(["--descriptor", "entropy", "--out"])
+            .arg(&out_dir)
+            .arg(sample())
+            .arg(&second),
     );
     let csv = std::fs::read_to_string(out_dir.join("sample.csv")).unwrap();
     assert!(csv.starts_with("x,y,scale,angle,response,h16,h32,h64,h128,h256\n"));
@@ -168,11 +153,7 @@ fn batch_processes_a_tree_skips_done_work_and_reports_failures() {
         .unwrap();
     std::fs::remove_file(input.join("sub/corrupt.jpg")).unwrap();
     let second = run(&[]);
-    assert!(
-        second.status.success(),
-        "{}",
-        String::from_utf8_lossy(&second.stderr)
-    );
+    assert_ok(&second);
     let summary = std::fs::read_to_string(output.join("summary.csv")).unwrap();
     assert_eq!(
         summary.lines().filter(|l| l.contains(",skipped,")).count(),
@@ -242,29 +223,24 @@ fn eval_rotation_writes_the_csv_and_the_figure() {
     let img = dir.path().join("small.png");
     small.save(&img).unwrap();
     let (csv, png) = (dir.path().join("r.csv"), dir.path().join("r.png"));
-    let out = steernav()
-        .args([
-            "eval",
-            "rotation",
-            "--backend",
-            "cpu",
-            "--detectors",
-            "steernav",
-            "--angles",
-            "0,90",
-            "--images",
-        ])
-        .arg(&img)
-        .arg("--csv")
-        .arg(&csv)
-        .arg("--plot")
-        .arg(&png)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        steernav()
+            .args([
+                "eval",
+                "rotation",
+                "--backend",
+                "cpu",
+                "--detectors",
+                "steernav",
+                "--angles",
+                "0,90",
+                "--images",
+            ])
+            .arg(&img)
+            .arg("--csv")
+            .arg(&csv)
+            .arg("--plot")
+            .arg(&png),
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -286,26 +262,18 @@ fn eval_rotation_writes_the_csv_and_the_figure() {
 
 #[test]
 fn bench_prints_json_rows_with_the_documented_keys() {
-    let out = steernav()
-        .args([
-            "bench",
-            "--sizes",
-            "96x64",
-            "--backend",
-            "cpu",
-            "--runs",
-            "3",
-            "--warmup",
-            "1",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = run_ok(steernav().args([
+        "bench",
+        "--sizes",
+        "96x64",
+        "--backend",
+        "cpu",
+        "--runs",
+        "3",
+        "--warmup",
+        "1",
+        "--json",
+    ]));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = v.as_array().unwrap();
     let stages: Vec<&str> = rows.iter().map(|r| r["stage"].as_str().unwrap()).collect();
@@ -347,15 +315,7 @@ fn bench_prints_json_rows_with_the_documented_keys() {
 fn slam_synth_slam_and_slam_eval_work_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
     let seq = dir.path().join("room");
-    let out = steernav()
-        .args(["slam-synth", seq.to_str().unwrap(), "--frames", "30"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok(steernav().args(["slam-synth", seq.to_str().unwrap(), "--frames", "30"]));
     let traj = dir.path().join("trajectory.txt");
     let map = dir.path().join("map.json");
     let plot = dir.path().join("slam.png");
@@ -371,11 +331,7 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(stdout.contains("ATE"), "{stdout}");
     let lines: Vec<String> = std::fs::read_to_string(&traj)
         .unwrap()
@@ -393,16 +349,11 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
         serde_json::from_str(&std::fs::read_to_string(&map).unwrap()).unwrap();
     assert!(points.as_array().unwrap()[0]["covariance"].is_array());
     assert!(image::open(&plot).is_ok());
-    let out = steernav()
-        .args(["slam-eval", "--json"])
-        .arg(&traj)
-        .arg(seq.join("groundtruth.txt"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        steernav()
+            .args(["slam-eval", "--json"])
+            .arg(&traj)
+            .arg(seq.join("groundtruth.txt")),
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for key in ["ate_rmse", "scale", "path_length", "matched"] {
@@ -451,17 +402,12 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
 fn nav_and_nav_eval_run_from_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let plot = dir.path().join("nav.png");
-    let out = steernav()
-        .args([
-            "nav", "--random", "3", "--mode", "laser", "--json", "--plot",
-        ])
-        .arg(&plot)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        steernav()
+            .args([
+                "nav", "--random", "3", "--mode", "laser", "--json", "--plot",
+            ])
+            .arg(&plot),
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(
@@ -485,11 +431,7 @@ fn nav_and_nav_eval_run_from_the_command_line() {
         .output()
         .unwrap();
     assert!(image::open(dir.path().join("eval.png")).is_ok());
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for mode in ["laser", "fusion"] {
         for key in [
@@ -558,26 +500,18 @@ fn nav_and_nav_eval_run_from_the_command_line() {
 
 #[test]
 fn bench_nav_suite_times_gist_and_the_field() {
-    let out = steernav()
-        .args([
-            "bench",
-            "--suite",
-            "nav",
-            "--backend",
-            "cpu",
-            "--runs",
-            "1",
-            "--warmup",
-            "0",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = run_ok(steernav().args([
+        "bench",
+        "--suite",
+        "nav",
+        "--backend",
+        "cpu",
+        "--runs",
+        "1",
+        "--warmup",
+        "0",
+        "--json",
+    ]));
     let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(rows.len(), 5, "2 GIST sizes + 3 field sizes");
     for r in &rows {
@@ -594,15 +528,10 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     let synth = dir.path().join("synth");
     let config = dir.path().join("drive.toml");
     std::fs::write(&config, "[synthetic]\nk1 = 0.0\n").unwrap();
-    let out = steernav()
-        .args(["slam-synth", synth.to_str().unwrap(), "--motion", "drive"])
-        .args(["--frames", "20", "--config", config.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        steernav()
+            .args(["slam-synth", synth.to_str().unwrap(), "--motion", "drive"])
+            .args(["--frames", "20", "--config", config.to_str().unwrap()]),
     );
     // The KITTI layout: image_0/, calib.txt (labelled P0 row), poses.txt; no times.txt.
     let kitti = dir.path().join("kitti");
@@ -638,11 +567,7 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     };
     let out = run(&["--format", "kitti"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     assert!(
         stdout.contains("kitti layout") && stdout.contains("ATE"),
         "{stdout}"
@@ -651,16 +576,11 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     assert_eq!(written.lines().count(), 20);
     assert!(written.lines().all(|l| l.split_whitespace().count() == 12));
     // 10 frames/s without times.txt: slam-eval pairs the KITTI rows with the ground truth.
-    let out = steernav()
-        .arg("slam-eval")
-        .arg(&traj)
-        .arg(kitti.join("poses.txt"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        steernav()
+            .arg("slam-eval")
+            .arg(&traj)
+            .arg(kitti.join("poses.txt")),
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("20 poses matched"));
     // A short poses.txt is refused before the run, naming the file.
@@ -690,15 +610,7 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
 fn slam_refuses_a_calibration_of_another_size_before_the_run() {
     let dir = tempfile::tempdir().unwrap();
     let seq = dir.path().join("room");
-    let out = steernav()
-        .args(["slam-synth", seq.to_str().unwrap(), "--frames", "3"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_ok(steernav().args(["slam-synth", seq.to_str().unwrap(), "--frames", "3"]));
     let calib = dir.path().join("wide.toml");
     std::fs::write(
         &calib,
@@ -813,11 +725,7 @@ fn slam_eval_gives_no_rpe_for_a_span_shorter_than_its_interval() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert!(v["rpe_trans"].is_null(), "{stdout}");
     let out = steernav()
@@ -881,24 +789,19 @@ fn detect_keeps_both_outputs_of_inputs_sharing_a_name() {
         std::fs::copy(sample(), dir.path().join(folder).join("img.png")).unwrap();
     }
     let out_dir = dir.path().join("o");
-    let out = steernav()
-        .args([
-            "detect",
-            "--backend",
-            "cpu",
-            "--max-keypoints",
-            "20",
-            "--out",
-        ])
-        .arg(&out_dir)
-        .arg(dir.path().join("a/img.png"))
-        .arg(dir.path().join("b/img.png"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        steernav()
+            .args([
+                "detect",
+                "--backend",
+                "cpu",
+                "--max-keypoints",
+                "20",
+                "--out",
+            ])
+            .arg(&out_dir)
+            .arg(dir.path().join("a/img.png"))
+            .arg(dir.path().join("b/img.png")),
     );
     assert!(out_dir.join("a_img.json").exists() && out_dir.join("b_img.json").exists());
 }
@@ -908,15 +811,10 @@ fn detect_keeps_both_outputs_of_inputs_sharing_a_name() {
 fn slam_interrupted_by_sigterm_still_writes_the_map_and_the_figure() {
     let dir = tempfile::tempdir().unwrap();
     let seq = dir.path().join("drive");
-    let synth = steernav()
-        .args(["slam-synth", "--motion", "drive", "--frames", "80"])
-        .arg(&seq)
-        .output()
-        .unwrap();
-    assert!(
-        synth.status.success(),
-        "{}",
-        String::from_utf8_lossy(&synth.stderr)
+    run_ok(
+        steernav()
+            .args(["slam-synth", "--motion", "drive", "--frames", "80"])
+            .arg(&seq),
     );
     let out_dir = dir.path().join("out");
     let child = steernav()

@@ -1,6 +1,8 @@
 //! Evaluation end to end on generated images: the rotation sweep, an Oxford-layout sequence
 //! made on the fly, the CSV and the figure. Peers are not needed (CI has no OpenCV).
 
+mod common;
+
 use std::path::Path;
 
 use steernav::eval::homography::{self, IDENTITY};
@@ -8,7 +10,7 @@ use steernav::eval::sweep::{
     homography_sequence, parse_angles, rotation_sweep, summarize, to_csv, EvalOptions, CSV_HEADER,
 };
 use steernav::synth::textured_scene;
-use steernav::{Backend, Detector, DetectorConfig};
+use steernav::DetectorConfig;
 
 fn save(frame: &steernav::Frame, path: &Path) {
     image::RgbImage::from_raw(frame.width, frame.height, frame.rgb.clone())
@@ -22,7 +24,7 @@ fn rotation_sweep_on_a_small_scene_writes_csv_and_figure() {
     let dir = tempfile::tempdir().unwrap();
     let img = dir.path().join("scene.png");
     save(&textured_scene(256, 192, 21), &img);
-    let det = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+    let det = common::cpu_detector(&DetectorConfig::default());
     let angles = parse_angles("0:360:90").unwrap();
     assert_eq!(angles, vec![0.0, 90.0, 180.0, 270.0]);
     let opts = EvalOptions::default();
@@ -86,7 +88,7 @@ fn homography_sequence_in_the_oxford_layout() {
     std::fs::write(dir.path().join("H1to2p"), text).unwrap();
     // img3 without its homography is ignored.
     save(&scene, &dir.path().join("img3.png"));
-    let det = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+    let det = common::cpu_detector(&DetectorConfig::default());
     let (rows, matching) =
         homography_sequence(dir.path(), Some(&det), None, &EvalOptions::default()).unwrap();
     assert_eq!(rows.len(), 3);

@@ -137,10 +137,6 @@ fn candidate_lists_match_cpu() {
     );
 }
 
-fn keypoints(d: &steernav::Detection) -> Vec<(f32, f32)> {
-    d.keypoints.iter().map(|k| (k.x, k.y)).collect()
-}
-
 #[test]
 fn final_keypoints_have_twins_on_the_other_backend() {
     if common::gpu().is_none() {
@@ -173,7 +169,7 @@ fn final_keypoints_have_twins_on_the_other_backend() {
             "too few keypoints to compare: {}",
             c.keypoints.len()
         );
-        let (gk, ck) = (keypoints(&g), keypoints(&c));
+        let (gk, ck) = (common::points(&g), common::points(&c));
         let (a, b) = (
             common::twin_fraction(&gk, &ck, 0.5),
             common::twin_fraction(&ck, &gk, 0.5),
@@ -251,7 +247,7 @@ fn tiled_gpu_runs_match_the_untiled_run_exactly() {
     let whole_cfg = DetectorConfig::default();
     let whole = Detector::new(&whole_cfg, Backend::Gpu).unwrap();
     let expected = whole.candidates(&frame).unwrap();
-    let expected_keypoints = keypoints(&whole.detect(&frame).unwrap());
+    let expected_keypoints = common::points(&whole.detect(&frame).unwrap());
     assert!(expected.candidates.len() > 100);
     for tile in [64, 100] {
         let cfg = DetectorConfig {
@@ -268,7 +264,7 @@ fn tiled_gpu_runs_match_the_untiled_run_exactly() {
             expected.candidates.len()
         );
         assert_eq!(
-            keypoints(&tiled.detect(&frame).unwrap()),
+            common::points(&tiled.detect(&frame).unwrap()),
             expected_keypoints
         );
     }
@@ -288,7 +284,7 @@ fn frames_in_flight_give_the_results_of_one_frame_at_a_time() {
         .collect();
     let expected: Vec<_> = frames
         .iter()
-        .map(|f| keypoints(&detector.detect(f).unwrap()))
+        .map(|f| common::points(&detector.detect(f).unwrap()))
         .collect();
     let mut items: Vec<(usize, steernav::error::Result<steernav::Frame>)> =
         frames.iter().cloned().map(Ok).enumerate().collect();
@@ -308,7 +304,7 @@ fn frames_in_flight_give_the_results_of_one_frame_at_a_time() {
         Ok((frame, d)) => {
             assert_eq!(frame.width, frames[tag].width);
             assert_eq!(d.backend, Backend::Gpu);
-            assert_eq!(keypoints(&d), expected[tag], "frame {tag}");
+            assert_eq!(common::points(&d), expected[tag], "frame {tag}");
             seen.push(tag);
         }
         Err(_) => seen.push(tag),

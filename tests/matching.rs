@@ -2,12 +2,13 @@
 //! multiple of the 15° between steered orientations), at least 90% of the matches are correct
 //! under the known map, before and after RANSAC; the JSON has the documented fields.
 
-use std::process::Command;
+mod common;
 
+use common::{run_ok, steernav};
 use steernav::eval::matching::corner_error;
 use steernav::features::matching::{mutual_matches, verify, Verification};
 use steernav::synth::{rotate, textured_scene};
-use steernav::{Backend, Detector, DetectorConfig};
+use steernav::DetectorConfig;
 
 fn correct(map: &[f64; 6], (x1, y1): (f64, f64), (x2, y2): (f64, f64)) -> bool {
     let (u, v) = (
@@ -22,7 +23,7 @@ fn correct(map: &[f64; 6], (x1, y1): (f64, f64), (x2, y2): (f64, f64)) -> bool {
 fn matches_on_a_rotated_pair_are_correct_under_the_known_map() {
     let scene = textured_scene(400, 300, 21);
     let (turned, map) = rotate(&scene, 37f32.to_radians(), 460, 420);
-    let detector = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+    let detector = common::cpu_detector(&DetectorConfig::default());
     let (a, b) = (
         detector.detect(&scene).unwrap(),
         detector.detect(&turned).unwrap(),
@@ -76,16 +77,11 @@ fn the_match_command_writes_the_documented_json_and_a_picture() {
     };
     let (a, b) = (save(&scene, "a.png"), save(&turned, "b.png"));
     let picture = dir.path().join("matches.png");
-    let out = Command::new(env!("CARGO_BIN_EXE_steernav"))
-        .args(["match", "--backend", "cpu", "--json", "--draw"])
-        .arg(&picture)
-        .args([&a, &b])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = run_ok(
+        steernav()
+            .args(["match", "--backend", "cpu", "--json", "--draw"])
+            .arg(&picture)
+            .args([&a, &b]),
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["descriptor"], "steered");
@@ -100,7 +96,7 @@ fn the_match_command_writes_the_documented_json_and_a_picture() {
     let drawn = image::open(&picture).unwrap();
     assert_eq!((drawn.width(), drawn.height()), (320 + 380, 360));
     // Bad flags are refused with their name.
-    let bad = Command::new(env!("CARGO_BIN_EXE_steernav"))
+    let bad = steernav()
         .args(["match", "--backend", "cpu", "--ratio", "1.5"])
         .args([&a, &b])
         .output()

@@ -2,8 +2,9 @@
 //! pick free headings that follow the motion; gzip and malformed lines are handled.
 
 use std::io::Write;
-use std::process::Command;
+mod common;
 
+use common::{run_ok, steernav};
 use steernav::nav::carmen::{parse, read_log};
 use steernav::nav::replay::{replay, ReplayConfig};
 
@@ -59,17 +60,7 @@ fn gzipped_logs_and_the_cli_json() {
     gz.write_all(corridor_log().as_bytes()).unwrap();
     gz.finish().unwrap();
     assert_eq!(read_log(&path).unwrap().len(), 120);
-    let out = Command::new(env!("CARGO_BIN_EXE_steernav"))
-        .arg("nav-replay")
-        .arg(&path)
-        .arg("--json")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = run_ok(steernav().arg("nav-replay").arg(&path).arg("--json"));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
     keys.sort_unstable();

@@ -2,6 +2,8 @@
 //! fuzz pass over real-looking files: whatever the input, a result or an error that names the
 //! input, never a panic. Cases are few and small so that the suite stays within the CI budget.
 
+mod common;
+
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -112,7 +114,7 @@ proptest! {
         let n = (width * height * 3) as usize;
         let rgb: Vec<u8> = (0..n).map(|_| if flat { 128 } else { rng.next_u64() as u8 }).collect();
         let frame = Frame::from_rgb(width, height, rgb).unwrap();
-        let detector = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+        let detector = common::cpu_detector(&DetectorConfig::default());
         match detector.detect(&frame) {
             Ok(found) => prop_assert!(found.keypoints.len() <= 500),
             Err(e) => prop_assert!(e.to_string().contains("image"), "{e}"),
@@ -165,7 +167,7 @@ fn seeded_fuzz_of_images_logs_and_settings_never_panics() {
         ranges.join(" "),
         ranges.join(" ")
     );
-    let settings = "[detector]\norientations = 8\nscales = 3\n[slam]\nmax_landmarks = 60\n[gist]\nblocks = 4\n";
+    let settings = "[detector]\norientations = 8\nscales = 3\n[slam.map]\nmax_landmarks = 60\n[gist]\nblocks = 4\n";
     let detector = Detector::new(
         &DetectorConfig {
             max_keypoints: 50,

@@ -8,10 +8,11 @@ use steernav::eval::repeatability::repeatability;
 use steernav::synth::{rotate, rotate90, textured_scene};
 use steernav::{Backend, Detection, Detector, DetectorConfig, Frame};
 
+/// Keypoint positions in the evaluation's f64.
 fn points(d: &Detection) -> Vec<(f64, f64)> {
-    d.keypoints
-        .iter()
-        .map(|k| (k.x as f64, k.y as f64))
+    common::points(d)
+        .into_iter()
+        .map(|(x, y)| (x as f64, y as f64))
         .collect()
 }
 
@@ -65,7 +66,7 @@ fn rotation(det: &Detector, frame: &Frame, degrees: f32) -> f64 {
 
 #[test]
 fn cpu_keypoints_survive_rotation() {
-    let det = Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap();
+    let det = common::cpu_detector(&DetectorConfig::default());
     let frame = textured_scene(480, 360, 11);
     let r90 = rotation90(&det, &frame);
     let r45 = rotation(&det, &frame, 45.0);

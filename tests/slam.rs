@@ -15,7 +15,7 @@ use steernav::synth::Rng;
 use steernav::{Backend, Detector, DetectorConfig, Frame};
 
 fn cpu_detector() -> Detector {
-    Detector::new(&DetectorConfig::default(), Backend::Cpu).unwrap()
+    common::cpu_detector(&DetectorConfig::default())
 }
 
 fn pose_of(r: &steernav::slam::tracker::FrameReport) -> Pose {
@@ -69,7 +69,7 @@ fn constant_velocity_filter_converges_on_the_generated_sequence() {
 /// Drives the generated car path and returns (frames lost, ATE as a share of the path).
 fn drive(config: SyntheticConfig) -> (usize, f64) {
     let seq = SyntheticSequence::new(config).unwrap();
-    let detector = Detector::new(&DetectorConfig::tracking(), Backend::Cpu).unwrap();
+    let detector = common::cpu_detector(&DetectorConfig::tracking());
     let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
     let mut estimate = Vec::new();
     let mut lost = 0;
@@ -121,7 +121,7 @@ fn forward_driving_at_5_hz_keeps_tracking() {
 #[test]
 fn a_car_waiting_before_it_drives_off_is_tracked() {
     let seq = SyntheticSequence::new(SyntheticConfig::for_motion(SyntheticMotion::Drive)).unwrap();
-    let detector = Detector::new(&DetectorConfig::tracking(), Backend::Cpu).unwrap();
+    let detector = common::cpu_detector(&DetectorConfig::tracking());
     let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
     let wait = 15;
     let dt = 1.0 / seq.config.fps;
@@ -216,7 +216,7 @@ fn blank_frames_are_reported_lost_and_the_pose_is_recovered_against_the_old_map(
     .unwrap();
     let detector = cpu_detector();
     let config = SlamConfig::default();
-    let lost_after = config.lost_after;
+    let lost_after = config.search.lost_after;
     let mut slam = Slam::new(seq.camera.clone(), config).unwrap();
     let (w, h) = (seq.camera.width, seq.camera.height);
     let blank = Frame::from_gray(w, h, vec![0.5; (w * h) as usize]).unwrap();
@@ -357,10 +357,8 @@ fn bad_input_gives_clear_errors() {
         message.contains("320x240") && message.contains("160x120"),
         "{message}"
     );
-    let bad = SlamConfig {
-        pixel_sigma: f64::NAN,
-        ..Default::default()
-    };
+    let mut bad = SlamConfig::default();
+    bad.filter.pixel_sigma = f64::NAN;
     let message = Slam::new(
         PinholeCamera::ideal(200.0, 200.0, 79.5, 59.5, 160, 120),
         bad,
@@ -368,5 +366,5 @@ fn bad_input_gives_clear_errors() {
     .err()
     .unwrap()
     .to_string();
-    assert!(message.contains("slam.pixel_sigma"), "{message}");
+    assert!(message.contains("slam.filter.pixel_sigma"), "{message}");
 }

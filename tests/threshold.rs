@@ -60,10 +60,7 @@ fn check(backend: Backend) {
     // and the keypoints stay where they were, within rounding to 8 bits.
     let full = relative.detect(&frame(sample())).unwrap();
     let dim = relative.detect(&degraded()[2].1).unwrap();
-    let points = |d: &steernav::Detection| -> Vec<(f32, f32)> {
-        d.keypoints.iter().map(|k| (k.x, k.y)).collect()
-    };
-    let same = common::twin_fraction(&points(&full), &points(&dim), 1.0);
+    let same = common::twin_fraction(&common::points(&full), &common::points(&dim), 1.0);
     assert!(
         same >= 0.8,
         "{backend:?}: {same} of the keypoints survive 30% contrast"

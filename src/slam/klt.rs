@@ -24,8 +24,9 @@ pub struct Pyramid {
     levels: Vec<Level>,
 }
 
-/// How a track is searched for.
-#[derive(Clone, Copy, Debug)]
+/// How a track is searched for: `[slam.klt]`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct KltParams {
     /// Half side of the integration window, pixels (side = 2·half + 1).
     pub half_window: usize,
@@ -46,6 +47,35 @@ impl Default for KltParams {
             iterations: 12,
             max_round_trip: 1.0,
         }
+    }
+}
+
+impl KltParams {
+    /// Checks every value, naming the first bad one.
+    pub fn validate(&self) -> crate::error::Result<()> {
+        use crate::error::Error;
+        if !(1..=32).contains(&self.half_window) {
+            return Err(Error::config(
+                "slam.klt.half_window",
+                self.half_window,
+                "must be in 1..=32",
+            ));
+        }
+        if !(1..=8).contains(&self.levels) {
+            return Err(Error::config(
+                "slam.klt.levels",
+                self.levels,
+                "must be in 1..=8",
+            ));
+        }
+        if !(1..=100).contains(&self.iterations) {
+            return Err(Error::config(
+                "slam.klt.iterations",
+                self.iterations,
+                "must be in 1..=100",
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -1,20 +1,80 @@
-//! Helpers shared by the integration tests.
+//! Helpers shared by the integration tests: the CLI binary and its checked runs, the bundled
+//! sample, the CPU detector, keypoint positions, the GPU context (with the count of GPU
+//! tests skipped without an adapter) and the comparisons the parity tests make.
 #![allow(dead_code)]
 
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use steernav::gpu::{gpu_required, GpuContext};
+use steernav::{Backend, Detection, Detector, DetectorConfig};
 
-/// The shared GPU context, or None when there is no adapter. With STEERNAV_REQUIRE_GPU=1 (CI)
-/// a missing adapter fails the test instead.
+/// The CLI built for this test run.
+pub fn steernav() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_steernav"))
+}
+
+/// Runs `command` and fails the test, with its stderr, unless it succeeded.
+pub fn run_ok(command: &mut Command) -> Output {
+    let out = command.output().expect("the command starts");
+    assert_ok(&out);
+    out
+}
+
+/// Fails the test, with the command's stderr, unless it succeeded.
+pub fn assert_ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{} ({})",
+        String::from_utf8_lossy(&out.stderr),
+        out.status
+    );
+}
+
+/// The bundled sample image.
+pub fn sample() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/sample.png")
+}
+
+/// A CPU detector with `config`.
+pub fn cpu_detector(config: &DetectorConfig) -> Detector {
+    Detector::new(config, Backend::Cpu).expect("the CPU detector builds")
+}
+
+/// Keypoint positions of a detection.
+pub fn points(d: &Detection) -> Vec<(f32, f32)> {
+    d.keypoints.iter().map(|k| (k.x, k.y)).collect()
+}
+
+static SKIPPED: AtomicUsize = AtomicUsize::new(0);
+
+extern "C" fn report_skipped() {
+    let n = SKIPPED.load(Ordering::SeqCst);
+    // Straight to the stream: the test harness captures `eprintln!` of passing tests.
+    let _ = writeln!(
+        std::io::stderr(),
+        "{n} GPU test(s) of this file skipped: no GPU adapter (STEERNAV_REQUIRE_GPU=1 fails them instead)"
+    );
+}
+
+/// The shared GPU context, or None when there is no adapter: the test then checks nothing,
+/// and the test binary says at exit how many were skipped. With STEERNAV_REQUIRE_GPU=1 (CI) a
+/// missing adapter fails the test instead.
 pub fn gpu() -> Option<Arc<GpuContext>> {
     match GpuContext::shared() {
         Ok(ctx) => Some(ctx),
         Err(e) if gpu_required() => panic!("STEERNAV_REQUIRE_GPU=1 but {e}"),
-        Err(e) => {
-            eprintln!(
-                "no GPU adapter ({e}): this GPU test checks nothing here; CI runs it on lavapipe"
-            );
+        Err(_) => {
+            if SKIPPED.fetch_add(1, Ordering::SeqCst) == 0 {
+                // SAFETY: registers a plain function that only reads an atomic and writes to
+                // stderr; libtest leaves through `exit`, which runs it once.
+                unsafe {
+                    libc::atexit(report_skipped);
+                }
+            }
             None
         }
     }

@@ -14,7 +14,7 @@ use crate::features::Detector;
 use crate::image::Frame;
 use crate::slam::association::{self, Template};
 use crate::slam::inverse_depth::{self, Parametrisation};
-use crate::slam::klt::{self, KltParams, Pyramid};
+use crate::slam::klt::{self, Pyramid};
 use crate::slam::rotation;
 use crate::slam::two_view;
 
@@ -55,8 +55,8 @@ impl Slam {
         // After a detection that found no free cell, wait before trying again, unless the
         // map is down to less than half its target: then a frame without new landmarks
         // risks losing the track, which costs more than a detection.
-        let critical = 2 * visible.len() < self.config.target_visible;
-        if visible.len() >= self.config.target_visible
+        let critical = 2 * visible.len() < self.config.map.target_visible;
+        if visible.len() >= self.config.map.target_visible
             || (self.frame_index < self.detect_after && !critical)
         {
             return Ok((0, 0.0, 0.0));
@@ -65,21 +65,22 @@ impl Slam {
         let detection = detector.detect(frame)?;
         let detection_ms = ms(t_detect);
         let t_create = Instant::now();
-        let want = (self.config.target_visible - visible.len()).min(self.config.max_new_per_frame);
+        let want =
+            (self.config.map.target_visible - visible.len()).min(self.config.map.max_new_per_frame);
         let (rho, sigma) = (
-            self.config.initial_inverse_depth,
-            self.config.inverse_depth_sigma,
+            self.config.filter.initial_inverse_depth,
+            self.config.filter.inverse_depth_sigma,
         );
         let priors = detection
             .keypoints
             .iter()
             .map(|kp| (Vector2::new(kp.x as f64, kp.y as f64), rho, sigma));
-        let two_frames = views.filter(|_| self.config.two_frame_depth);
+        let two_frames = views.filter(|_| self.config.map.two_frame_depth);
         let created = self.add_at_free_cells(frame, &visible, priors, want, |slam, z| {
             two_frames.and_then(|(previous, current)| slam.two_frame_prior(z, previous, current))
         });
         if created == 0 {
-            self.detect_after = self.frame_index + self.config.redetect_interval;
+            self.detect_after = self.frame_index + self.config.map.redetect_interval;
         }
         Ok((created, detection_ms, ms(t_create)))
     }
@@ -97,8 +98,8 @@ impl Slam {
         depth: impl Fn(&Self, &Vector2<f64>) -> Option<(f64, f64)>,
     ) -> usize {
         let cam = self.filter.camera().clone();
-        let margin = (2 * self.config.template_half + 2) as f64;
-        let [gx, gy] = self.config.grid;
+        let margin = (2 * self.config.search.template_half + 2) as f64;
+        let [gx, gy] = self.config.map.grid;
         let cell = |z: &Vector2<f64>| -> usize {
             let cx = ((z.x / cam.width as f64) * gx as f64).clamp(0.0, gx as f64 - 1.0) as usize;
             let cy = ((z.y / cam.height as f64) * gy as f64).clamp(0.0, gy as f64 - 1.0) as usize;
@@ -120,7 +121,7 @@ impl Slam {
             let template = Template::capture(
                 frame,
                 z,
-                2 * self.config.template_half,
+                2 * self.config.search.template_half,
                 self.filter.position(),
                 self.filter.orientation(),
             );
@@ -161,15 +162,15 @@ impl Slam {
         // Start KLT where the point would be if it were at infinity: the rotation between
         // the frames is then already accounted for.
         let guess = cam.project(&(rot0.transpose() * direction1)).unwrap_or(*z);
-        let z0 = klt::track(current, previous, *z, guess, &KltParams::default())?;
+        let z0 = klt::track(current, previous, *z, guess, &self.config.klt)?;
         let direction0 = (rot0 * cam.back_project(z0).0).normalize();
         let (distance, parallax) = two_view::closest_approach(&r1, &direction1, &r0, &direction0)?;
         let rho = 1.0 / distance;
         // σ_ρ/ρ ≈ (σ/f)/α for one pixel of noise, with a floor for the uncertainty of the
         // baseline itself (the motion between the frames is an estimate).
-        let relative = (self.config.pixel_sigma / cam.fx.max(cam.fy)) / parallax;
-        let sigma = rho * relative.max(self.config.two_frame_depth_floor);
-        (sigma < self.config.inverse_depth_sigma).then_some((rho, sigma))
+        let relative = (self.config.filter.pixel_sigma / cam.fx.max(cam.fy)) / parallax;
+        let sigma = rho * relative.max(self.config.map.two_frame_depth_floor);
+        (sigma < self.config.filter.inverse_depth_sigma).then_some((rho, sigma))
     }
 
     /// Removes landmarks from the filter and their tracks.
@@ -197,7 +198,7 @@ impl Slam {
                 self.filter.rho_variance(slot),
                 &r,
             );
-            if index < self.config.linearity_threshold {
+            if index < self.config.filter.linearity_threshold {
                 self.filter.convert_to_euclidean(slot);
                 converted += 1;
             }
@@ -209,7 +210,7 @@ impl Slam {
     /// the ones unseen longest while the map holds more than `max_landmarks`. Returns how
     /// many went.
     pub(super) fn delete_bad_landmarks(&mut self) -> usize {
-        let c = &self.config;
+        let c = &self.config.map;
         let mut doomed: Vec<usize> = self
             .tracks
             .iter()

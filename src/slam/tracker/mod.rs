@@ -26,7 +26,7 @@ use self::start::Phase;
 use super::camera::PinholeCamera;
 use super::config::SlamConfig;
 use super::ekf::{Filter, Observation};
-use super::klt::{KltParams, Pyramid};
+use super::klt::Pyramid;
 use super::motion::{MotionModel, OdometryStep};
 use super::rotation::Quat;
 use crate::error::{Error, Result};
@@ -68,9 +68,9 @@ impl Slam {
         let filter = Filter::new(
             camera,
             config.motion.clone(),
-            config.pixel_sigma,
-            config.velocity_sigma,
-            config.angular_velocity_sigma,
+            config.filter.pixel_sigma,
+            config.filter.velocity_sigma,
+            config.filter.angular_velocity_sigma,
         );
         Ok(Self {
             config,
@@ -118,7 +118,7 @@ impl Slam {
         };
         let t_assoc = Instant::now();
         let (width, height) = (frame.width as usize, frame.height as usize);
-        let pyramid = Pyramid::new(&frame.gray, width, height, KltParams::default().levels);
+        let pyramid = Pyramid::new(&frame.gray, width, height, self.config.klt.levels);
         let previous = self.previous.take();
         match self.phase {
             Phase::Starting(_) => {
@@ -152,7 +152,7 @@ impl Slam {
             .iter()
             .filter_map(|s| s.observation.clone())
             .collect();
-        if self.lost_streak >= self.config.lost_after && !candidates.is_empty() {
+        if self.lost_streak >= self.config.search.lost_after && !candidates.is_empty() {
             // Relocalising: the blind prediction correlated the camera with the map through
             // a motion that did not happen. Re-measure the pose against the map as it stands
             // instead of letting the correction drag the map along.
@@ -249,7 +249,7 @@ impl Slam {
     fn judge_tracking(&mut self, searched: &[LandmarkSearch], supported: usize) -> (bool, bool) {
         let lost = !searched.is_empty() && supported < 3
             || self.filter.slots().is_empty() && self.frame_index > 0;
-        let relocalised = !lost && self.lost_streak >= self.config.lost_after;
+        let relocalised = !lost && self.lost_streak >= self.config.search.lost_after;
         self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
         if !lost {
             for s in searched {

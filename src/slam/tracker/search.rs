@@ -9,7 +9,7 @@ use super::Slam;
 use crate::image::Frame;
 use crate::slam::association;
 use crate::slam::ekf::Observation;
-use crate::slam::klt::{self, KltParams, Pyramid};
+use crate::slam::klt::{self, Pyramid};
 
 /// One landmark's search.
 #[derive(Clone, Debug)]
@@ -48,7 +48,7 @@ impl Slam {
     ) -> Option<LandmarkSearch> {
         let (filter, config) = (&self.filter, &self.config);
         let cam = filter.camera();
-        let half = config.template_half;
+        let half = config.search.template_half;
         let prediction = filter.predict_observation(slot)?;
         if !cam.contains(&prediction.pixel, (half + 1) as f64) {
             return None;
@@ -78,28 +78,29 @@ impl Slam {
                 } else {
                     last
                 };
-                klt::track(from, pyramid, last, guess, &KltParams::default())
+                klt::track(from, pyramid, last, guess, &self.config.klt)
             });
         let region = match tracked {
             Some(z) => association::SearchRegion {
                 predicted: z,
-                covariance: Matrix2::identity() * 0.5,
-                gate: config.search_gate,
-                max_extent: 2.0,
+                covariance: Matrix2::identity() * config.search.tracked_variance,
+                gate: config.search.gate,
+                max_extent: config.search.tracked_extent,
             },
             None => association::SearchRegion {
                 predicted: prediction.pixel,
                 covariance: s,
-                gate: config.search_gate,
-                max_extent: config.max_search_extent * (1 + self.lost_streak.min(4)) as f64,
+                gate: config.search.gate,
+                max_extent: config.search.max_extent
+                    * (1 + self.lost_streak.min(config.search.max_widening)) as f64,
             },
         };
         let (width, height) = (frame.width as usize, frame.height as usize);
         let found = association::search(&frame.gray, width, height, &t, half, &region);
         let threshold = if tracked.is_some() {
-            config.min_tracked_correlation
+            config.search.min_tracked_correlation
         } else {
-            config.min_correlation
+            config.search.min_correlation
         };
         let found = found.map(|best| {
             if best.1 >= threshold {
@@ -110,7 +111,7 @@ impl Slam {
                     template,
                     warp,
                     half,
-                    &config.template_scales,
+                    &config.search.template_scales,
                     best,
                 )
             }
@@ -119,7 +120,8 @@ impl Slam {
             return Some(missed(false, tracked));
         };
         let d = crate::features::descriptor::describe(frame, z.x as f32, z.y as f32);
-        if association::descriptor_distance(&d, &template.descriptor) > config.descriptor_tolerance
+        if association::descriptor_distance(&d, &template.descriptor)
+            > config.search.descriptor_tolerance
         {
             return Some(missed(true, tracked));
         }

@@ -13,7 +13,7 @@ use crate::error::Result;
 use crate::features::Detector;
 use crate::image::Frame;
 use crate::slam::ekf::Seat;
-use crate::slam::klt::{self, KltParams, Pyramid};
+use crate::slam::klt::{self, Pyramid};
 use crate::slam::rotation::{self, Quat};
 use crate::slam::two_view;
 
@@ -77,14 +77,14 @@ impl Slam {
         let t = Instant::now();
         let (followed, _) = self.follow_bootstrap(previous, pyramid);
         timings.association_ms = ms(t);
-        if followed >= MIN_BOOTSTRAP_POINTS {
+        if followed >= self.config.start.min_points {
             let t = Instant::now();
             created = self.try_seat(frame, timestamp);
             timings.filter_ms = ms(t);
         }
         let at_rest = matches!(&self.phase, Phase::Starting(Some(b))
-            if followed >= MIN_BOOTSTRAP_POINTS
-                && timestamp - b.timestamp >= STATIONARY_START_AFTER);
+            if followed >= self.config.start.min_points
+                && timestamp - b.timestamp >= self.config.start.stationary_after);
         if at_rest {
             // The points stay put: the camera is (nearly) at rest, which is the paper's own
             // start — the filter at rest, landmarks at the inverse-depth prior. The points
@@ -97,7 +97,7 @@ impl Slam {
             timings.detection_ms = detection_ms;
             timings.filter_ms += creation_ms;
         }
-        if matches!(self.phase, Phase::Starting(_)) && followed < MIN_BOOTSTRAP_POINTS {
+        if matches!(self.phase, Phase::Starting(_)) && followed < self.config.start.min_points {
             let t = Instant::now();
             self.restart_bootstrap(pyramid, timestamp);
             timings.detection_ms = ms(t);
@@ -110,8 +110,13 @@ impl Slam {
     /// Starts the two-view reference at this frame: Shi–Tomasi corners of `pyramid`, at the
     /// filter's current pose.
     fn restart_bootstrap(&mut self, pyramid: &Pyramid, timestamp: f64) {
-        let margin = KltParams::default().half_window + 2;
-        let points = klt::good_features(pyramid, [16, 12], 2, margin);
+        let margin = self.config.klt.half_window + 2;
+        let points = klt::good_features(
+            pyramid,
+            self.config.start.corner_grid,
+            self.config.start.corners_per_cell,
+            margin,
+        );
         let reference = Bootstrap {
             timestamp,
             position: self.filter.position(),
@@ -128,10 +133,10 @@ impl Slam {
     /// Follows the start-up points from `previous` into `current` by KLT, dropping those it
     /// loses. Returns how many are left and their median displacement in pixels.
     fn follow_bootstrap(&mut self, previous: Option<&Pyramid>, current: &Pyramid) -> (usize, f64) {
+        let params = self.config.klt;
         let (Some(b), Some(from)) = (self.reference_mut(), previous) else {
             return (0, 0.0);
         };
-        let params = KltParams::default();
         let moved: Vec<Option<Vector2<f64>>> = b
             .current
             .par_iter()
@@ -166,13 +171,14 @@ impl Slam {
         current: &Pyramid,
     ) -> Option<usize> {
         let (followed, median_step) = self.follow_bootstrap(previous, current);
-        if followed < MIN_BOOTSTRAP_POINTS {
+        if followed < self.config.start.min_points {
             self.restart_bootstrap(current, timestamp);
             return None;
         }
         let (r, q) = (self.filter.position(), self.filter.orientation());
+        let rest_step = self.config.start.rest_step;
         let b = self.reference_mut()?;
-        if median_step < REST_STEP_PIXELS {
+        if median_step < rest_step {
             // Still at rest: the motion, when it comes, starts from here.
             b.start.clone_from(&b.current);
             b.timestamp = timestamp;
@@ -201,8 +207,13 @@ impl Slam {
             .zip(&b.current)
             .map(|(a, c)| (normalised(a), normalised(c)))
             .collect();
-        let threshold = self.config.ransac_threshold / cam.fx.max(cam.fy);
-        let Some(pose) = two_view::relative_pose(&pairs, threshold, 2000, &mut self.rng) else {
+        let threshold = self.config.ransac.threshold / cam.fx.max(cam.fy);
+        let Some(pose) = two_view::relative_pose(
+            &pairs,
+            threshold,
+            self.config.start.two_view_iterations,
+            &mut self.rng,
+        ) else {
             return 0;
         };
         let inlier_count = pose.inliers.iter().filter(|&&i| i).count();
@@ -213,11 +224,11 @@ impl Slam {
             .filter(|(_, &i)| i)
             .map(|(p, _)| *p)
             .collect();
-        if inlier_count < MIN_BOOTSTRAP_POINTS || 2 * inlier_count < pairs.len() {
+        if inlier_count < self.config.start.min_points || 2 * inlier_count < pairs.len() {
             return 0;
         }
         parallax.sort_by(f64::total_cmp);
-        if parallax[3 * parallax.len() / 4] < MIN_BOOTSTRAP_PARALLAX {
+        if parallax[3 * parallax.len() / 4] < self.config.start.min_parallax {
             return 0;
         }
         let elapsed = (timestamp - b.timestamp).max(1e-9);
@@ -232,7 +243,7 @@ impl Slam {
         let median_rho = inverse_depths[inverse_depths.len() / 2];
         // Map units per unit of two-view translation: the median landmark lands at the
         // inverse-depth prior ρ₀, as a landmark started from one view would.
-        let scale = median_rho / self.config.initial_inverse_depth.max(1e-6);
+        let scale = median_rho / self.config.filter.initial_inverse_depth.max(1e-6);
         let rot0 = rotation::matrix(&b.orientation);
         // Camera 1 in camera 0's frame: centre −Rᵀt, orientation Rᵀ.
         let centre = -(pose.rotation.transpose() * pose.translation) * scale;
@@ -254,12 +265,15 @@ impl Slam {
         self.filter.seat(&Seat {
             position: r,
             orientation: q,
-            position_variance: (0.05 * baseline).powi(2) + 1e-12,
-            orientation_variance: 1e-6,
+            position_variance: (self.config.start.position_sigma_per_baseline * baseline).powi(2)
+                + 1e-12,
+            orientation_variance: self.config.start.orientation_variance,
             velocity,
-            velocity_variance: (0.1 * velocity.norm()).powi(2) + self.config.velocity_sigma.powi(2),
+            velocity_variance: (self.config.start.velocity_sigma_fraction * velocity.norm())
+                .powi(2)
+                + self.config.filter.velocity_sigma.powi(2),
             angular_velocity: omega,
-            angular_velocity_variance: self.config.angular_velocity_sigma.powi(2),
+            angular_velocity_variance: self.config.filter.angular_velocity_sigma.powi(2),
         });
         // Landmarks at the triangulated inliers, spread over the grid.
         let inliers: Vec<(Vector2<f64>, f64, f64)> = (0..pairs.len())
@@ -267,26 +281,16 @@ impl Slam {
             .map(|i| {
                 let rho = 1.0 / (pose.depths[i] * scale);
                 // Depth from parallax α with one pixel of noise: σ_ρ/ρ ≈ (σ/f)/α.
-                let relative = (self.config.pixel_sigma / cam.fx) / pose.parallax[i].max(1e-6);
-                let sigma = (rho * relative.max(0.1)).min(self.config.inverse_depth_sigma.max(rho));
+                let relative =
+                    (self.config.filter.pixel_sigma / cam.fx) / pose.parallax[i].max(1e-6);
+                let sigma = (rho * relative.max(self.config.start.depth_floor))
+                    .min(self.config.filter.inverse_depth_sigma.max(rho));
                 (b.current[i], rho, sigma)
             })
             .collect();
         self.phase = Phase::Tracking;
         let visible = self.visible_pixels();
-        let limit = (2 * self.config.target_visible).saturating_sub(visible.len());
+        let limit = (2 * self.config.map.target_visible).saturating_sub(visible.len());
         self.add_at_free_cells(frame, &visible, inliers, limit, |_, _| None)
     }
 }
-
-/// Seconds without enough parallax after which the camera is taken to be at rest and the
-/// filter starts there, as in the paper.
-const STATIONARY_START_AFTER: f64 = 1.0;
-/// Median step of the start-up points between two frames, pixels, under which a camera that
-/// started at rest is taken to be still at rest.
-const REST_STEP_PIXELS: f64 = 0.5;
-/// Fewest points (followed, then inliers) for a two-view estimate.
-const MIN_BOOTSTRAP_POINTS: usize = 20;
-/// Parallax, radians, that a quarter of the inliers must reach for the two views to fix the
-/// depths (about 1°).
-const MIN_BOOTSTRAP_PARALLAX: f64 = 0.017;

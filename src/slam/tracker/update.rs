@@ -65,7 +65,7 @@ impl Slam {
             let d2 = s
                 .try_inverse()
                 .map_or(f64::INFINITY, |si| nu.dot(&(si * nu)));
-            if d2 < self.config.rescue_gate {
+            if d2 < self.config.ransac.rescue_gate {
                 rescued.push(Observation {
                     slot: obs.slot,
                     pixel: obs.pixel,
@@ -115,7 +115,8 @@ impl Slam {
             };
             let template = &self.tracks[obs.slot].template;
             let depth = (point - r).norm();
-            if depth > 1e-9 && (r - template.position).norm() > self.config.template_refresh * depth
+            if depth > 1e-9
+                && (r - template.position).norm() > self.config.search.template_refresh * depth
             {
                 let radius = template.radius;
                 let fresh = Template::capture(frame, obs.pixel, radius, r, q);
@@ -145,12 +146,12 @@ impl Slam {
                     let s = self.filter.slots()[obs.slot];
                     let y = &state.as_slice()[s.offset..s.offset + s.kind.dim()];
                     inverse_depth::predict(cam, s.kind, y, &r, &q).is_some_and(|p| {
-                        (p.pixel - obs.pixel).norm() < self.config.ransac_threshold
+                        (p.pixel - obs.pixel).norm() < self.config.ransac.threshold
                     })
                 })
                 .collect()
         };
-        let mut needed = self.config.max_hypotheses;
+        let mut needed = self.config.ransac.max_hypotheses;
         let exhaustive = n <= needed;
         let order: Vec<usize> = if exhaustive {
             (0..n).collect()
@@ -174,7 +175,7 @@ impl Slam {
                 best_count = count;
                 best = support;
                 needed = needed.min(association::hypotheses_needed(
-                    self.config.ransac_confidence,
+                    self.config.ransac.confidence,
                     count as f64 / n as f64,
                 ));
             }
