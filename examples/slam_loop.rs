@@ -2,7 +2,7 @@
 //! synthetic drive, rendered in memory), its pose and covariance read back after each frame:
 //! `cargo run --release --example slam_loop`.
 use steernav::slam::config::SlamConfig;
-use steernav::slam::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
+use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::tracker::Slam;
 use steernav::{Backend, Detector, DetectorConfig};
 

@@ -13,7 +13,7 @@ use crate::nav::gist::GistConfig;
 use crate::nav::replay::ReplayConfig;
 use crate::nav::sim::episode::NavConfig;
 use crate::slam::config::SlamConfig;
-use crate::slam::synthetic::SyntheticConfig;
+use crate::slam::data::synthetic::SyntheticConfig;
 
 /// Every table of a settings file, each at its documented defaults when absent.
 #[derive(Clone, Debug, Default, PartialEq)]

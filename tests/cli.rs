@@ -553,8 +553,11 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
         ),
     )
     .unwrap();
-    let truth = steernav::slam::trajectory::read_tum(&synth.join("groundtruth.txt")).unwrap();
-    let rows: Vec<String> = truth.iter().map(steernav::slam::kitti::pose_row).collect();
+    let truth = steernav::slam::data::trajectory::read_tum(&synth.join("groundtruth.txt")).unwrap();
+    let rows: Vec<String> = truth
+        .iter()
+        .map(steernav::slam::data::kitti::pose_row)
+        .collect();
     std::fs::write(kitti.join("poses.txt"), rows.join("\n") + "\n").unwrap();
     let traj = dir.path().join("trajectory.txt");
     let run = |extra: &[&str]| {
@@ -893,4 +896,28 @@ fn a_truncated_jpeg_is_named_and_counted_as_damaged() {
         summary.lines().any(|l| l.contains("whole.jpg,done,")),
         "{summary}"
     );
+}
+
+#[test]
+fn keypoints_without_descriptors_are_refused_for_matching() {
+    let out = steernav()
+        .args(["match", "--backend", "cpu", "--descriptor", "none"])
+        .arg(sample())
+        .arg(sample())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--descriptor none"),
+        "{err}"
+    );
+    let out = run_ok(
+        steernav()
+            .args(["detect", "--backend", "cpu", "--descriptor", "none"])
+            .args(["--max-keypoints", "20"])
+            .arg(sample()),
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["descriptor"], "none", "{v}");
+    assert_eq!(v["descriptor_length"], 0, "{v}");
 }

@@ -19,7 +19,7 @@ mod common;
 use std::path::PathBuf;
 
 use steernav::slam::config::SlamConfig;
-use steernav::slam::synthetic::{SyntheticConfig, SyntheticSequence};
+use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticSequence};
 use steernav::slam::tracker::Slam;
 use steernav::{DetectorConfig, Frame};
 
@@ -56,15 +56,12 @@ fn sample_keypoints_match_the_golden_file() {
     let expected: Vec<Row> = serde_json::from_str(&text).unwrap();
     let (n, m) = (expected.len(), found.len());
     assert!(n > 100, "the golden file holds {n} keypoints");
-    assert!(
-        m.abs_diff(n) * 100 <= n,
-        "{m} keypoints against {n} golden"
-    );
+    assert!(m.abs_diff(n) * 100 <= n, "{m} keypoints against {n} golden");
     let mut twins = 0;
     for e in &expected {
-        let twin = found.iter().find(|f| {
-            (f[0] - e[0]).hypot(f[1] - e[1]) <= 0.5 && (f[2] / e[2] - 1.0).abs() < 1e-3
-        });
+        let twin = found
+            .iter()
+            .find(|f| (f[0] - e[0]).hypot(f[1] - e[1]) <= 0.5 && (f[2] / e[2] - 1.0).abs() < 1e-3);
         if let Some(f) = twin {
             assert!(
                 (f[3] - e[3]).abs() <= 0.01 * e[3].abs(),
@@ -121,7 +118,12 @@ fn slam_trajectory_on_the_generated_room_matches_the_golden_file() {
     assert_eq!(rows.len(), expected.len());
     let length = seq.path_length();
     for (r, e) in rows.iter().zip(&expected) {
-        assert!((r[0] - e[0]).abs() < 1e-6, "timestamps {} and {}", r[0], e[0]);
+        assert!(
+            (r[0] - e[0]).abs() < 1e-6,
+            "timestamps {} and {}",
+            r[0],
+            e[0]
+        );
         let d = ((r[1] - e[1]).powi(2) + (r[2] - e[2]).powi(2) + (r[3] - e[3]).powi(2)).sqrt();
         assert!(
             d <= 0.005 * length,

@@ -57,14 +57,14 @@ proptest! {
 
     #[test]
     fn tum_trajectories(text in token_lines()) {
-        parses_or_names("traj.txt", text.as_bytes(), steernav::slam::trajectory::read_tum);
+        parses_or_names("traj.txt", text.as_bytes(), steernav::slam::data::trajectory::read_tum);
     }
 
     #[test]
     fn kitti_files(text in token_lines()) {
-        parses_or_names("poses.txt", text.as_bytes(), |p| steernav::slam::kitti::read_poses(p, &[0.0, 0.1, 0.2]));
-        parses_or_names("times.txt", text.as_bytes(), steernav::slam::kitti::read_times);
-        parses_or_names("calib.txt", text.as_bytes(), |p| steernav::slam::kitti::read_calibration(p, 640, 480));
+        parses_or_names("poses.txt", text.as_bytes(), |p| steernav::slam::data::kitti::read_poses(p, &[0.0, 0.1, 0.2]));
+        parses_or_names("times.txt", text.as_bytes(), steernav::slam::data::kitti::read_times);
+        parses_or_names("calib.txt", text.as_bytes(), |p| steernav::slam::data::kitti::read_calibration(p, 640, 480));
     }
 
     #[test]
@@ -77,7 +77,7 @@ proptest! {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir(dir.path().join("rgb")).unwrap();
         std::fs::write(dir.path().join("rgb.txt"), &text).unwrap();
-        if let Err(e) = steernav::slam::sequence::open(dir.path(), None) {
+        if let Err(e) = steernav::slam::data::sequence::open(dir.path(), None) {
             let message = e.to_string();
             prop_assert!(message.contains("rgb") || message.contains(&dir.path().display().to_string()), "{message}");
         }

@@ -7,10 +7,10 @@ mod common;
 use nalgebra::{DMatrix, SymmetricEigen, Vector3, Vector4};
 use steernav::slam::camera::PinholeCamera;
 use steernav::slam::config::SlamConfig;
+use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
+use steernav::slam::data::trajectory::{evaluate, Pose};
 use steernav::slam::motion::{relative_motion, MotionModel, OdometryStep};
-use steernav::slam::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::tracker::Slam;
-use steernav::slam::trajectory::{evaluate, Pose};
 use steernav::synth::Rng;
 use steernav::{Backend, Detector, DetectorConfig, Frame};
 
@@ -267,7 +267,7 @@ fn blank_frames_are_reported_lost_and_the_pose_is_recovered_against_the_old_map(
         .collect();
     let src: Vec<Vector3<f64>> = fit.iter().map(|&k| estimate[k].position).collect();
     let dst: Vec<Vector3<f64>> = fit.iter().map(|&k| seq.poses[k].position).collect();
-    let (scale, rot, shift) = steernav::slam::trajectory::umeyama(&src, &dst, true);
+    let (scale, rot, shift) = steernav::slam::data::trajectory::umeyama(&src, &dst, true);
     let error =
         |k: usize| (scale * rot * estimate[k].position + shift - seq.poses[k].position).norm();
     let mean = |r: std::ops::Range<usize>| r.clone().map(error).sum::<f64>() / r.len() as f64;

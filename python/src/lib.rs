@@ -717,6 +717,11 @@ fn match_keypoints<'py>(
             "desc1 and desc2 have different lengths: describe both images the same way",
         ));
     }
+    if a.first().is_some_and(|p| p.descriptor.is_empty()) {
+        return Err(PyValueError::new_err(
+            "desc1 and desc2 are empty (descriptor = \"none\"): nothing to match on",
+        ));
+    }
     let (matches, verified) = py.detach(|| {
         let matches = mutual_matches(&a, &b, ratio);
         let pairs: Vec<_> = matches

@@ -114,7 +114,8 @@ pub struct DetectorFlags {
     #[arg(long, value_parser = choice::<MergeMode>(MergeMode::NAMES))]
     pub merge: Option<MergeMode>,
     /// Descriptor of every keypoint: steered (128 steered responses in the keypoint's frame,
-    /// for matching) or entropy (the paper's five colour entropies) [default: steered].
+    /// for matching), entropy (the paper's five colour entropies) or none (keypoints only;
+    /// `slam` uses none) [default: steered].
     #[arg(long, value_parser = choice::<DescriptorKind>(DescriptorKind::NAMES))]
     pub descriptor: Option<DescriptorKind>,
     /// Absolute floor of a candidate's scale-normalised Harris response [default: 1e-12].

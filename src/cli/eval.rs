@@ -135,6 +135,9 @@ impl EvalArgs {
         }
         let steernav = if wanted.iter().any(|w| w == "steernav") {
             let mut cfg = self.detector.config()?;
+            if cfg.descriptor == steernav::features::DescriptorKind::None {
+                bail!("--descriptor none: matching and recall need a descriptor");
+            }
             cfg.max_keypoints = self.keypoints;
             Some(Detector::new(&cfg, self.detector.backend.backend)?)
         } else {

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use clap::Args;
 use serde::Serialize;
 use steernav::features::matching::{mutual_matches, verify, Verification};
+use steernav::features::DescriptorKind;
 use steernav::Frame;
 
 use crate::args::{choice, DetectorArgs};
@@ -85,6 +86,9 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
     }
     if cmd.iterations == 0 || cmd.iterations > 1_000_000 {
         anyhow::bail!("--iterations {}: must be in 1..=1000000", cmd.iterations);
+    }
+    if cmd.detector.config()?.descriptor == DescriptorKind::None {
+        anyhow::bail!("--descriptor none: the keypoints would carry nothing to match on");
     }
     let detector = cmd.detector.detector()?;
     let load = |path: &PathBuf| -> anyhow::Result<(Frame, steernav::Detection)> {

@@ -7,13 +7,13 @@ use std::process::ExitCode;
 use anyhow::{bail, Context};
 use clap::Args;
 use steernav::slam::camera::PinholeCamera;
-use steernav::slam::figure::{slam_figure, EstimatedPose};
-use steernav::slam::kitti;
+use steernav::slam::data::figure::{slam_figure, EstimatedPose};
+use steernav::slam::data::kitti;
+use steernav::slam::data::sequence;
+use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
+use steernav::slam::data::trajectory::{self, tum_line, Pose};
 use steernav::slam::motion::{relative_motion, MotionModel};
-use steernav::slam::sequence;
-use steernav::slam::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::tracker::{FrameReport, Slam};
-use steernav::slam::trajectory::{self, tum_line, Pose};
 use steernav::Frame;
 
 use crate::args::{progress, DetectorArgs};

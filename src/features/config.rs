@@ -72,9 +72,12 @@ pub enum DescriptorKind {
     Steered,
     /// The paper's five colour entropies (section 2.3, eqs 9–10).
     Entropy,
+    /// Keypoints only, for callers that describe (or track) them their own way, as SLAM does
+    /// with its templates: the keypoints cannot be matched.
+    None,
 }
 
-named_variants!(DescriptorKind { Steered => "steered", Entropy => "entropy" });
+named_variants!(DescriptorKind { Steered => "steered", Entropy => "entropy", None => "none" });
 
 impl DescriptorKind {
     /// Number of values per keypoint.
@@ -82,6 +85,7 @@ impl DescriptorKind {
         match self {
             DescriptorKind::Steered => crate::features::steered::STEERED_LEN,
             DescriptorKind::Entropy => 5,
+            DescriptorKind::None => 0,
         }
     }
 }
@@ -212,7 +216,8 @@ impl DetectorConfig {
             rank_normalization: 0.5,
             merge: MergeMode::Pixel,
             relative_threshold: 0.001,
-            descriptor: DescriptorKind::Entropy,
+            // The tracker cuts its own templates and entropies where a landmark starts.
+            descriptor: DescriptorKind::None,
             ..Self::default()
         }
     }

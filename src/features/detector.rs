@@ -430,12 +430,14 @@ impl Detector {
             .collect();
         // Descriptors on the backend that found the candidates; a steered descriptor is read
         // on the pyramid level where its window has a few pixels per cell.
-        if kind == DescriptorKind::Steered {
-            self.describe_steered(frame, backend, &mut keypoints, pyramid)?;
-        } else {
-            keypoints.par_iter_mut().for_each(|k| {
+        match kind {
+            DescriptorKind::Steered => {
+                self.describe_steered(frame, backend, &mut keypoints, pyramid)?;
+            }
+            DescriptorKind::Entropy => keypoints.par_iter_mut().for_each(|k| {
                 k.descriptor = describe(frame, k.x, k.y).to_vec();
-            });
+            }),
+            DescriptorKind::None => {}
         }
         let t3 = Instant::now();
         let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;

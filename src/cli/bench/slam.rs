@@ -7,7 +7,7 @@ use serde::Serialize;
 use steernav::error::Result;
 use steernav::features::{Backend, Detector, DetectorConfig};
 use steernav::slam::config::SlamConfig;
-use steernav::slam::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
+use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::tracker::{FrameReport, Slam};
 
 /// One size and backend.

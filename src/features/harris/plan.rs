@@ -212,7 +212,7 @@ impl HarrisPlan {
                 .map(|s| descriptor_level(s.sigma_d))
                 .max()
                 .unwrap_or(0),
-            DescriptorKind::Entropy => 0,
+            DescriptorKind::Entropy | DescriptorKind::None => 0,
         };
         let levels = scales
             .iter()

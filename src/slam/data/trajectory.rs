@@ -9,8 +9,8 @@ use std::path::Path;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
-use super::rotation::{self, Quat};
 use crate::error::{Error, Result};
+use crate::slam::rotation::{self, Quat};
 
 /// A timestamped camera pose (camera → world).
 #[derive(Clone, Copy, Debug, PartialEq)]

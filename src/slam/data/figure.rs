@@ -7,9 +7,9 @@ use std::path::Path;
 use nalgebra::{Matrix2, SymmetricEigen};
 use plotters::prelude::*;
 
-use super::tracker::MapPoint;
 use super::trajectory::Pose;
 use crate::error::{Error, Result};
+use crate::slam::tracker::MapPoint;
 
 /// One estimated pose with its position covariance.
 #[derive(Clone, Debug)]

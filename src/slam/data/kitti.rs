@@ -7,10 +7,10 @@ use std::path::Path;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::camera::PinholeCamera;
-use super::rotation;
 use super::trajectory::Pose;
 use crate::error::{ConfigError, Error, Result};
+use crate::slam::camera::PinholeCamera;
+use crate::slam::rotation;
 
 fn read(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|source| Error::Io {

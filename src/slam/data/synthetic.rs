@@ -13,11 +13,11 @@ use nalgebra::{Vector2, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::camera::PinholeCamera;
-use super::rotation;
 use super::trajectory::{write_tum, Pose};
 use crate::error::{Error, Result};
 use crate::image::Frame;
+use crate::slam::camera::PinholeCamera;
+use crate::slam::rotation;
 
 /// How the synthetic camera moves.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
