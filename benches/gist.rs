@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use steernav::nav::gist::{GistConfig, GistEngine};
-use steernav::nav::sim::visual::VisualConfig;
+use steernav::nav::visual::VisualConfig;
 
 fn gist(c: &mut Criterion) {
     let mut group = c.benchmark_group("gist per image");

@@ -3,8 +3,7 @@
 //! pillar between the robot and its goal), cast analytically; on a robot they come from the
 //! scanner driver in the same form (`angle_min`, `angle_increment`, ranges):
 //! `cargo run --release --example nav_controller`.
-use steernav::nav::controller::{Controller, LaserScan};
-use steernav::nav::sim::episode::{Mode, NavConfig};
+use steernav::nav::controller::{Controller, ControllerConfig, LaserScan, Mode};
 
 /// Range from `origin` along `angle` to a circle (centre, radius), or `max` when it misses.
 fn ray_to_circle(origin: [f32; 2], angle: f32, centre: [f32; 2], radius: f32, max: f32) -> f32 {
@@ -25,8 +24,9 @@ fn ray_to_circle(origin: [f32; 2], angle: f32, centre: [f32; 2], radius: f32, ma
 }
 
 fn main() -> Result<(), steernav::Error> {
-    let config = NavConfig::default();
-    let period = config.control_period;
+    // The robot's own control period, seconds.
+    let period = 0.1f32;
+    let config = ControllerConfig::default();
     let mut controller = Controller::new(config, Mode::Laser, Default::default())?;
     let (pillar, radius, goal) = ([4.0f32, -1.0], 0.5f32, [8.0f32, 0.0]);
     let (beams, range_max) = (181usize, 4.0f32);

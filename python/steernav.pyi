@@ -78,11 +78,16 @@ class Slam:
         """(N, 8) TUM rows: t, x, y, z, qx, qy, qz, qw."""
 
 class Controller:
-    """The neural-field navigation controller; keyword arguments are the [nav] table's keys."""
+    """The neural-field navigation controller; keyword arguments are the [nav.controller]
+    table's keys (field, stimulus, camera, visual, field_steps, turn_gain, max_turn_rate,
+    rear_inhibition). mode is "laser" or "fusion" (LIDAR plus the camera's GIST, computed on
+    backend)."""
 
     field: npt.NDArray[np.float32]
     """(N,): the field's activations over world headings 2πi/N after the last step."""
-    def __init__(self, **settings: Any) -> None: ...
+    mode: str
+    """"laser" or "fusion"."""
+    def __init__(self, mode: str = "laser", backend: str = "auto", **settings: Any) -> None: ...
     def step(
         self,
         ranges: npt.NDArray[np.float32],
@@ -91,8 +96,10 @@ class Controller:
         pose: Tuple[float, float, float],
         goal: Tuple[float, float],
         range_max: float = ...,
+        image: Optional[npt.NDArray[Any]] = None,
     ) -> Tuple[float, float, float]:
-        """One control cycle: returns (v, ω, heading relative to the robot)."""
+        """One control cycle: returns (v, ω, heading relative to the robot). In fusion mode
+        image is the camera frame, (H, W) or (H, W, 3), uint8 or float32 in [0, 1]."""
 
 def repeatability(
     kp1: npt.NDArray[np.float32],

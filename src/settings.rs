@@ -11,7 +11,7 @@ use crate::error::{ConfigError, Error, Result};
 use crate::features::DetectorConfig;
 use crate::nav::gist::GistConfig;
 use crate::nav::replay::ReplayConfig;
-use crate::nav::sim::episode::NavConfig;
+use crate::nav::sim::episode::EpisodeConfig;
 use crate::slam::config::SlamConfig;
 use crate::slam::data::synthetic::SyntheticConfig;
 
@@ -25,7 +25,7 @@ pub struct Settings {
     /// `[gist]`: the GIST descriptor (gist).
     pub gist: GistConfig,
     /// `[nav]`: the simulated navigation episodes (nav, nav-eval, nav-sweep).
-    pub nav: NavConfig,
+    pub nav: EpisodeConfig,
     /// `[replay]`: the neural field driven by a laser log (nav-replay).
     pub replay: ReplayConfig,
     /// `[synthetic]`: the generated SLAM sequence (slam-synth).
@@ -40,7 +40,7 @@ struct SettingsFile {
     detector: DetectorConfig,
     slam: SlamConfig,
     gist: GistConfig,
-    nav: NavConfig,
+    nav: EpisodeConfig,
     replay: ReplayConfig,
     synthetic: SyntheticConfig,
 }
@@ -91,6 +91,38 @@ impl Settings {
     }
 }
 
+/// The keys of a table that moved elsewhere (`KEYS[i]` = (old key, new place)), for
+/// [`Moved`].
+pub(crate) trait MovedKeys {
+    /// The table the old keys were in.
+    const TABLE: &'static str;
+    /// (old key, its new place), in field order.
+    const KEYS: &'static [(&'static str, &'static str)];
+    /// Why they moved, said after the new place.
+    const WHY: &'static str;
+}
+
+/// A key that moved: it deserialises from nothing, and any value given is refused with the
+/// key's new place (`K::KEYS[I]`), so an old settings file fails at its line with the fix.
+pub(crate) struct Moved<K, const I: usize>(std::marker::PhantomData<K>);
+
+impl<K, const I: usize> Default for Moved<K, I> {
+    fn default() -> Self {
+        Self(std::marker::PhantomData)
+    }
+}
+
+impl<'de, K: MovedKeys, const I: usize> serde::Deserialize<'de> for Moved<K, I> {
+    fn deserialize<D: serde::Deserializer<'de>>(_: D) -> std::result::Result<Self, D::Error> {
+        let (old, new) = K::KEYS[I];
+        Err(serde::de::Error::custom(format!(
+            "`{}.{old}` moved to `{new}` ({})",
+            K::TABLE,
+            K::WHY
+        )))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,7 +136,7 @@ mod tests {
         assert_eq!(s.detector.orientations, 8);
         assert_eq!(s.slam.map.max_landmarks, 40);
         assert_eq!(s.gist.blocks, 2);
-        assert_eq!(s.nav, NavConfig::default());
+        assert_eq!(s.nav, EpisodeConfig::default());
         assert!(s.has("slam") && !s.has("nav"));
         let e = Settings::from_toml_str("[slam]\nmax_landmarkz = 4\n").unwrap_err();
         assert_eq!(e.line, Some(2));
@@ -120,6 +152,16 @@ mod tests {
         assert_eq!(e.line, Some(3));
         let text = e.to_string();
         assert!(text.contains("moved to `slam.map.max_landmarks`"), "{text}");
+        let s = Settings::from_toml_str("[nav]\nmax_time = 5\n[nav.controller]\nturn_gain = 3\n")
+            .unwrap();
+        assert_eq!((s.nav.max_time, s.nav.controller.turn_gain), (5.0, 3.0));
+        let text = Settings::from_toml_str("[nav]\nturn_gain = 3\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            text.contains("moved to `nav.controller.turn_gain`"),
+            "{text}"
+        );
         let e = Settings::from_toml_str("[detectr]\n")
             .unwrap_err()
             .to_string();

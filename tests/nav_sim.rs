@@ -2,14 +2,15 @@
 //! should, episodes that reach the goal, and fusion beating LIDAR alone where the LIDAR is
 //! blind without losing where it is not.
 
-use steernav::nav::gist::GistEngine;
-use steernav::nav::sim::episode::{run, run_lockstep, Fields, Mode, NavConfig, Outcome, Robot};
+use steernav::nav::controller::Mode;
+use steernav::nav::gist::{Gist, GistEngine};
+use steernav::nav::sim::episode::{run, run_lockstep, EpisodeConfig, Fields, Outcome, Robot};
 use steernav::nav::sim::evaluate::fields;
 use steernav::nav::sim::evaluate::{
     all_visible, compare, evaluation_world, train_visual_model, EvalSettings,
 };
-use steernav::nav::sim::visual::VisualObstacleModel;
 use steernav::nav::sim::world::{Obstacle, Shape, World};
+use steernav::nav::visual::VisualObstacleModel;
 use steernav::synth::Rng;
 
 mod common;
@@ -69,13 +70,13 @@ fn worlds_load_from_toml_and_bad_ones_are_named() {
 #[test]
 fn lidar_misses_low_obstacles_that_the_camera_shows() {
     let w: World = toml::from_str(WORLD).unwrap();
-    let cfg = NavConfig::default();
+    let cfg = EpisodeConfig::default();
     // Facing the low box from 1 m: the LIDAR reads past it, the camera's bottom rows show it.
     let pose = [5.75, 2.5, -std::f32::consts::FRAC_PI_2];
     let scan = cfg.lidar.scan(&w, pose, &mut Rng(1));
     let ahead = scan[cfg.lidar.beams / 2];
     assert!(ahead > 1.5, "the LIDAR must not see the low box: {ahead}");
-    let view = cfg.camera.render(&w, pose);
+    let view = cfg.controller.camera.render(&w, pose);
     let (width, height) = (view.width as usize, view.height as usize);
     let column = width / 2;
     let pixel = |y: usize| &view.rgb[3 * (y * width + column)..3 * (y * width + column) + 3];
@@ -92,7 +93,7 @@ fn lidar_misses_low_obstacles_that_the_camera_shows() {
 #[test]
 fn episodes_reach_the_goal_around_a_visible_obstacle() {
     let w: World = toml::from_str(WORLD).unwrap();
-    let cfg = NavConfig::default();
+    let cfg = EpisodeConfig::default();
     let e = run(
         &w,
         &cfg,
@@ -131,7 +132,7 @@ fn a_blocked_path_collides_or_times_out_but_never_passes_through() {
         height: 0.2,
         transparent: false,
     }];
-    let cfg = NavConfig::default();
+    let cfg = EpisodeConfig::default();
     let e = run(
         &w,
         &cfg,
@@ -148,8 +149,8 @@ fn a_blocked_path_collides_or_times_out_but_never_passes_through() {
 
 #[test]
 fn fusion_beats_lidar_alone_where_the_lidar_is_blind_and_matches_it_elsewhere() {
-    let cfg = NavConfig::default();
-    let gist = GistEngine::new(cfg.visual.gist.clone()).unwrap();
+    let cfg = EpisodeConfig::default();
+    let gist = Gist::from(GistEngine::new(cfg.controller.visual.gist.clone()).unwrap());
     let settings = EvalSettings {
         episodes: 40,
         seed: 77,
@@ -193,7 +194,7 @@ fn fusion_beats_lidar_alone_where_the_lidar_is_blind_and_matches_it_elsewhere() 
 
 #[test]
 fn lockstep_batches_match_single_episodes_on_cpu_and_gpu() {
-    let cfg = NavConfig::default();
+    let cfg = EpisodeConfig::default();
     let worlds: Vec<World> = (0..6).map(|k| World::random(500 + k, 8, 0.0)).collect();
     let single: Vec<_> = worlds
         .iter()
@@ -211,7 +212,7 @@ fn lockstep_batches_match_single_episodes_on_cpu_and_gpu() {
             .unwrap()
         })
         .collect();
-    fn robots<'a>(worlds: &'a [World], cfg: &'a NavConfig) -> Vec<Robot<'a>> {
+    fn robots<'a>(worlds: &'a [World], cfg: &'a EpisodeConfig) -> Vec<Robot<'a>> {
         worlds
             .iter()
             .enumerate()

@@ -14,12 +14,12 @@ use numpy::{
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
-use rayon::prelude::*;
 use steernav_core::eval::homography::Homography;
 use steernav_core::eval::recall::{Descriptors, KeypointSet};
-use steernav_core::nav::controller::{Controller as CoreController, LaserScan};
-use steernav_core::nav::gist::{GistConfig, GistEngine, GpuGist};
-use steernav_core::nav::sim::episode::{Mode, NavConfig};
+use steernav_core::nav::controller::{
+    Controller as CoreController, ControllerConfig, LaserScan, Mode,
+};
+use steernav_core::nav::gist::{Gist, GistConfig};
 use steernav_core::slam::camera::PinholeCamera;
 use steernav_core::slam::config::SlamConfig;
 use steernav_core::slam::tracker::Slam as CoreSlam;
@@ -341,13 +341,7 @@ fn gist<'py>(
     let context = backend.resolve().map_err(py_err)?;
     let rows = py
         .detach(move || -> steernav_core::Result<Vec<Vec<f32>>> {
-            match context {
-                Some(ctx) => GpuGist::new(ctx, config)?.describe_batch(&frames),
-                None => {
-                    let engine = GistEngine::new(config)?;
-                    frames.par_iter().map(|f| engine.describe(f)).collect()
-                }
-            }
+            Gist::with_context(context, config)?.describe_batch(&frames)
         })
         .map_err(py_err)?;
     if single {
@@ -477,24 +471,48 @@ fn pose_covariance(slam: &CoreSlam) -> Array2<f64> {
 #[pyclass(module = "steernav")]
 struct Controller {
     inner: CoreController,
+    /// The camera's GIST engine, in fusion mode.
+    gist: Option<Gist>,
 }
 
 #[pymethods]
 impl Controller {
-    /// `Controller(**nav_settings)`: the keys of the `[nav]` table (field, stimulus, turn_gain…).
+    /// `Controller(mode="laser", backend="auto", **controller_settings)`: the keys of the
+    /// `[nav.controller]` table (field, stimulus, camera, visual, turn_gain…); in fusion mode
+    /// the camera's GIST runs on `backend`.
     #[new]
-    #[pyo3(signature = (**settings))]
-    fn new(settings: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
-        let config: NavConfig = config_from("Controller", settings)?;
+    #[pyo3(signature = (mode = "laser", backend = "auto", **settings))]
+    fn new(mode: &str, backend: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<Self> {
+        let config: ControllerConfig = config_from("Controller", settings)?;
+        let mode: Mode = mode.parse().map_err(|_| {
+            PyValueError::new_err(format!(
+                "mode = {mode:?}: expected one of {}",
+                Mode::NAMES.join(", ")
+            ))
+        })?;
+        let gist = match mode {
+            Mode::Fusion => Some(
+                Gist::new(config.visual.gist.clone(), parse_backend(backend)?).map_err(py_err)?,
+            ),
+            Mode::Laser => None,
+        };
         Ok(Self {
-            inner: CoreController::new(config, Mode::Laser, Default::default()).map_err(py_err)?,
+            inner: CoreController::new(config, mode, Default::default()).map_err(py_err)?,
+            gist,
         })
     }
 
+    /// The mode, "laser" or "fusion".
+    #[getter]
+    fn mode(&self) -> &'static str {
+        self.inner.mode().as_str()
+    }
+
     /// One control cycle: ranges (metres) with the first beam's angle and the spacing
-    /// (radians, ROS convention), the pose (x, y, θ) and the goal (x, y). Returns
-    /// (v, ω, heading).
-    #[pyo3(signature = (ranges, angle_min, angle_increment, pose, goal, range_max = f32::INFINITY))]
+    /// (radians, ROS convention), the pose (x, y, θ), the goal (x, y) and, in fusion mode, the
+    /// camera image. Returns (v, ω, heading).
+    #[pyo3(signature = (ranges, angle_min, angle_increment, pose, goal, range_max = f32::INFINITY, image = None))]
+    #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
         ranges: PyReadonlyArray1<'_, f32>,
@@ -503,6 +521,7 @@ impl Controller {
         pose: (f32, f32, f32),
         goal: (f32, f32),
         range_max: f32,
+        image: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<(f32, f32, f32)> {
         let scan = LaserScan::new(
             ranges.as_array().to_vec(),
@@ -510,9 +529,16 @@ impl Controller {
             angle_increment,
             range_max,
         );
+        let frame = image.map(frame_of).transpose()?;
+        if frame.is_some() && self.gist.is_none() {
+            return Err(PyValueError::new_err(
+                "image: a laser-mode controller uses no camera (Controller(mode=\"fusion\"))",
+            ));
+        }
+        let camera = frame.as_ref().zip(self.gist.as_ref());
         let c = self
             .inner
-            .step(&scan, [pose.0, pose.1, pose.2], [goal.0, goal.1], None)
+            .step(&scan, [pose.0, pose.1, pose.2], [goal.0, goal.1], camera)
             .map_err(py_err)?;
         Ok((c.v, c.omega, c.heading))
     }

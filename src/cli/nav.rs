@@ -6,8 +6,9 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use clap::Args;
-use steernav::nav::gist::GistEngine;
-use steernav::nav::sim::episode::{run, Mode, NavConfig};
+use steernav::nav::controller::Mode;
+use steernav::nav::gist::{Gist, GistEngine};
+use steernav::nav::sim::episode::{run, EpisodeConfig};
 use steernav::nav::sim::evaluate::{
     all_visible, compare, evaluation_world, train_visual_model, Comparison, EvalSettings,
     ModeSummary,
@@ -119,7 +120,7 @@ fn field_gpu(
     Ok(backend.backend.resolve()?)
 }
 
-fn config(arg: &ConfigArg) -> anyhow::Result<NavConfig> {
+fn config(arg: &ConfigArg) -> anyhow::Result<EpisodeConfig> {
     let cfg = arg.settings()?.nav;
     cfg.validate()?;
     Ok(cfg)
@@ -132,7 +133,7 @@ pub fn nav(cmd: NavCmd) -> anyhow::Result<ExitCode> {
         (None, Some(seed)) => World::random(seed, 8, 0.4),
         (None, None) => anyhow::bail!("give --world FILE or --random SEED"),
     };
-    let gist = GistEngine::new(cfg.visual.gist.clone())?;
+    let gist = Gist::from(GistEngine::new(cfg.controller.visual.gist.clone())?);
     let settings = EvalSettings {
         episodes: 0,
         seed: cmd.seed,
@@ -192,7 +193,7 @@ pub fn nav_eval(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
     if cmd.episodes == 0 {
         anyhow::bail!("--episodes: at least 1");
     }
-    let gist = GistEngine::new(cfg.visual.gist.clone())?;
+    let gist = Gist::from(GistEngine::new(cfg.controller.visual.gist.clone())?);
     let settings = EvalSettings {
         episodes: cmd.episodes,
         seed: cmd.seed,
@@ -310,7 +311,7 @@ pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
     if cmd.episodes == 0 {
         anyhow::bail!("--episodes: at least 1");
     }
-    let gist = GistEngine::new(base.visual.gist.clone())?;
+    let gist = Gist::from(GistEngine::new(base.controller.visual.gist.clone())?);
     let settings = EvalSettings {
         episodes: cmd.episodes,
         seed: cmd.seed,
@@ -380,7 +381,7 @@ pub fn nav_sweep(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
     }
     let best = &rows[0].candidate;
     println!(
-        "\nBest as a config file:\n[nav]\nturn_gain = {:.3}\n[nav.field]\ntau = {:.4}\nh = {:.3}\ninteraction = {{ type = \"amari\", excite = 1.0, inhibit = {:.3}, width = 3 }}\n[nav.stimulus]\nc_o = {:.3}\nsigma = {:.3}\ng_scale = {:.3}",
+        "\nBest as a config file:\n[nav.controller]\nturn_gain = {:.3}\n[nav.controller.field]\ntau = {:.4}\nh = {:.3}\ninteraction = {{ type = \"amari\", excite = 1.0, inhibit = {:.3}, width = 3 }}\n[nav.controller.stimulus]\nc_o = {:.3}\nsigma = {:.3}\ng_scale = {:.3}",
         best.turn_gain, best.tau, best.h, best.inhibit, best.c_o, best.sigma, best.g_scale
     );
     Ok(ExitCode::SUCCESS)

@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use super::carmen::Scan;
 use super::controller::{Controller, LaserScan};
+use super::controller::{ControllerConfig, Mode};
 use super::dnf::FieldConfig;
-use super::sim::episode::{Mode, NavConfig};
 use super::stimulus::{angle_diff, StimulusConfig};
 use crate::error::{Error, Result};
 
@@ -165,12 +165,12 @@ pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
     // The robot-frame controller of a robot at the origin facing +x: the log's own poses
     // only give the target, so the ring is the scanner's frame.
     let mut controller = Controller::new(
-        NavConfig {
+        ControllerConfig {
             field: cfg.field.clone(),
             stimulus: cfg.stimulus.clone(),
             field_steps: cfg.steps_per_scan,
             rear_inhibition: cfg.rear_inhibition,
-            ..NavConfig::default()
+            ..ControllerConfig::default()
         },
         Mode::Laser,
         Default::default(),

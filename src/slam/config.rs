@@ -7,11 +7,12 @@
 //!
 //! Keys that used to sit flat in `[slam]` are refused with the place they moved to.
 
-use serde::{Deserialize, Deserializer, Serialize};
+use serde::{Deserialize, Serialize};
 
 use super::klt::KltParams;
 use super::motion::MotionModel;
 use crate::error::{Error, Result};
+use crate::settings::{Moved, MovedKeys};
 
 /// SLAM parameters.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -284,18 +285,14 @@ pub const MOVED_KEYS: &[(&str, &str)] = &[
     ("max_landmarks", "slam.map.max_landmarks"),
 ];
 
-/// A key that moved: any value is refused with the key's new place (`MOVED_KEYS[I]`).
-#[derive(Default)]
-struct Moved<const I: usize>;
+/// The keys of the old flat `[slam]` table.
+struct FlatSlam;
 
-impl<'de, const I: usize> Deserialize<'de> for Moved<I> {
-    fn deserialize<D: Deserializer<'de>>(_: D) -> std::result::Result<Self, D::Error> {
-        let (old, new) = MOVED_KEYS[I];
-        Err(serde::de::Error::custom(format!(
-            "`slam.{old}` moved to `{new}` (the [slam] table is split into [slam.filter], \
-             [slam.search], [slam.ransac], [slam.map], [slam.start], [slam.klt])"
-        )))
-    }
+impl MovedKeys for FlatSlam {
+    const TABLE: &'static str = "slam";
+    const KEYS: &'static [(&'static str, &'static str)] = MOVED_KEYS;
+    const WHY: &'static str = "the [slam] table is split into [slam.filter], [slam.search], \
+                               [slam.ransac], [slam.map], [slam.start], [slam.klt]";
 }
 
 /// The `[slam]` table as read: the sub-tables, and the old flat keys, which only refuse.
@@ -310,61 +307,61 @@ struct SlamTable {
     start: StartConfig,
     klt: KltParams,
     #[serde(rename = "pixel_sigma")]
-    _0: Moved<0>,
+    _0: Moved<FlatSlam, 0>,
     #[serde(rename = "velocity_sigma")]
-    _1: Moved<1>,
+    _1: Moved<FlatSlam, 1>,
     #[serde(rename = "angular_velocity_sigma")]
-    _2: Moved<2>,
+    _2: Moved<FlatSlam, 2>,
     #[serde(rename = "initial_inverse_depth")]
-    _3: Moved<3>,
+    _3: Moved<FlatSlam, 3>,
     #[serde(rename = "inverse_depth_sigma")]
-    _4: Moved<4>,
+    _4: Moved<FlatSlam, 4>,
     #[serde(rename = "linearity_threshold")]
-    _5: Moved<5>,
+    _5: Moved<FlatSlam, 5>,
     #[serde(rename = "template_half")]
-    _6: Moved<6>,
+    _6: Moved<FlatSlam, 6>,
     #[serde(rename = "search_gate")]
-    _7: Moved<7>,
+    _7: Moved<FlatSlam, 7>,
     #[serde(rename = "max_search_extent")]
-    _8: Moved<8>,
+    _8: Moved<FlatSlam, 8>,
     #[serde(rename = "min_correlation")]
-    _9: Moved<9>,
+    _9: Moved<FlatSlam, 9>,
     #[serde(rename = "min_tracked_correlation")]
-    _10: Moved<10>,
+    _10: Moved<FlatSlam, 10>,
     #[serde(rename = "template_scales")]
-    _11: Moved<11>,
+    _11: Moved<FlatSlam, 11>,
     #[serde(rename = "template_refresh")]
-    _12: Moved<12>,
+    _12: Moved<FlatSlam, 12>,
     #[serde(rename = "descriptor_tolerance")]
-    _13: Moved<13>,
+    _13: Moved<FlatSlam, 13>,
     #[serde(rename = "lost_after")]
-    _14: Moved<14>,
+    _14: Moved<FlatSlam, 14>,
     #[serde(rename = "ransac_threshold")]
-    _15: Moved<15>,
+    _15: Moved<FlatSlam, 15>,
     #[serde(rename = "ransac_confidence")]
-    _16: Moved<16>,
+    _16: Moved<FlatSlam, 16>,
     #[serde(rename = "max_hypotheses")]
-    _17: Moved<17>,
+    _17: Moved<FlatSlam, 17>,
     #[serde(rename = "rescue_gate")]
-    _18: Moved<18>,
+    _18: Moved<FlatSlam, 18>,
     #[serde(rename = "target_visible")]
-    _19: Moved<19>,
+    _19: Moved<FlatSlam, 19>,
     #[serde(rename = "max_new_per_frame")]
-    _20: Moved<20>,
+    _20: Moved<FlatSlam, 20>,
     #[serde(rename = "two_frame_depth")]
-    _21: Moved<21>,
+    _21: Moved<FlatSlam, 21>,
     #[serde(rename = "two_frame_depth_floor")]
-    _22: Moved<22>,
+    _22: Moved<FlatSlam, 22>,
     #[serde(rename = "grid")]
-    _23: Moved<23>,
+    _23: Moved<FlatSlam, 23>,
     #[serde(rename = "redetect_interval")]
-    _24: Moved<24>,
+    _24: Moved<FlatSlam, 24>,
     #[serde(rename = "min_predicted_for_deletion")]
-    _25: Moved<25>,
+    _25: Moved<FlatSlam, 25>,
     #[serde(rename = "min_match_ratio")]
-    _26: Moved<26>,
+    _26: Moved<FlatSlam, 26>,
     #[serde(rename = "max_landmarks")]
-    _27: Moved<27>,
+    _27: Moved<FlatSlam, 27>,
 }
 
 impl From<SlamTable> for SlamConfig {

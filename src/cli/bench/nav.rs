@@ -12,7 +12,7 @@ use steernav::nav::dnf::GpuFieldBatch;
 use steernav::nav::dnf::{bell, FieldBatch, FieldConfig};
 use steernav::nav::gist::GpuGist;
 use steernav::nav::gist::{GistConfig, GistEngine};
-use steernav::nav::sim::visual::VisualConfig;
+use steernav::nav::visual::VisualConfig;
 
 /// Euler steps per timed field run.
 pub const FIELD_STEPS: usize = 100;

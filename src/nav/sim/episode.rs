@@ -5,111 +5,126 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::sensors::{CameraConfig, LidarConfig};
-use super::visual::{VisualConfig, VisualObstacleModel};
+use super::sensors::LidarConfig;
 use super::world::World;
 use crate::error::{Error, Result};
-use crate::nav::controller::{Command, Controller, LaserScan};
-use crate::nav::dnf::{FieldBatch, FieldConfig};
-use crate::nav::gist::GistEngine;
-use crate::nav::stimulus::{angle_diff, StimulusConfig};
+use crate::nav::controller::{Command, Controller, ControllerConfig, LaserScan, Mode};
+use crate::nav::dnf::FieldBatch;
+use crate::nav::gist::Gist;
+use crate::nav::stimulus::angle_diff;
+use crate::nav::visual::VisualObstacleModel;
 use crate::rng::Rng;
+use crate::settings::{Moved, MovedKeys};
 
-/// Which sensors drive the field.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Mode {
-    /// LIDAR range/bearing stimulus only.
-    Laser,
-    /// LIDAR plus the learned GIST stimulus of the camera.
-    Fusion,
-}
-
-named_variants!(Mode { Laser => "laser", Fusion => "fusion" });
-
-/// Every parameter of an episode, with documented defaults (the `[nav]` TOML table).
+/// Every parameter of an episode (the `[nav]` TOML table): the robot's controller, and what
+/// only the simulator has — the LIDAR, the clock, the goal and the integration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct NavConfig {
-    /// The field.
-    pub field: FieldConfig,
-    /// Stimuli and velocity laws (default c_o = 30, σ = 10; the rest as [`StimulusConfig`]).
-    pub stimulus: StimulusConfig,
+#[serde(from = "NavTable")]
+pub struct EpisodeConfig {
+    /// `[nav.controller]`: the robot's controller.
+    pub controller: ControllerConfig,
     /// The LIDAR.
     pub lidar: LidarConfig,
-    /// The camera.
-    pub camera: CameraConfig,
-    /// The GIST stimulus and its learning.
-    pub visual: VisualConfig,
     /// Control period, seconds. Default 0.1.
     pub control_period: f32,
-    /// Euler steps of the field per control period. Default 10.
-    pub field_steps: usize,
     /// Episode time limit, seconds. Default 60.
     pub max_time: f32,
     /// The goal is reached within this distance, metres. Default 0.3.
     pub goal_tolerance: f32,
-    /// Turn rate per radian of heading error, 1/s. Default 2.5.
-    pub turn_gain: f32,
-    /// Largest turn rate, rad/s. Default 2.0.
-    pub max_turn_rate: f32,
-    /// Stimulus subtracted from headings behind the robot. Default 4.
-    pub rear_inhibition: f32,
     /// Integration sub-step, seconds. Default 0.01.
     pub substep: f32,
 }
 
-impl Default for NavConfig {
+impl Default for EpisodeConfig {
     fn default() -> Self {
         Self {
-            field: FieldConfig::default(),
-            // Measured on 40 random worlds without LIDAR-invisible obstacles: eq 32's c_o = 2
-            // (the replay's default) lets the robot reach 7 goals; c_o = 30 with σ = 10
-            // reaches 36, with 2 collisions.
-            stimulus: StimulusConfig {
-                c_o: 30.0,
-                sigma: 10.0,
-                ..StimulusConfig::default()
-            },
+            controller: ControllerConfig::default(),
             lidar: LidarConfig::default(),
-            camera: CameraConfig::default(),
-            visual: VisualConfig::default(),
             control_period: 0.1,
-            field_steps: 10,
             max_time: 60.0,
             goal_tolerance: 0.3,
-            turn_gain: 2.5,
-            max_turn_rate: 2.0,
-            rear_inhibition: 4.0,
             substep: 0.01,
         }
     }
 }
 
-impl NavConfig {
+impl EpisodeConfig {
     /// Checks every value, naming the bad one.
     pub fn validate(&self) -> Result<()> {
-        self.field.validate()?;
-        self.stimulus.validate()?;
+        self.controller.validate()?;
         self.lidar.validate()?;
-        self.camera.validate()?;
-        self.visual.validate()?;
         for (field, v) in [
             ("nav.control_period", self.control_period),
             ("nav.max_time", self.max_time),
             ("nav.goal_tolerance", self.goal_tolerance),
-            ("nav.turn_gain", self.turn_gain),
-            ("nav.max_turn_rate", self.max_turn_rate),
             ("nav.substep", self.substep),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(Error::config(field, v, "must be finite and > 0"));
             }
         }
-        if self.field_steps == 0 {
-            return Err(Error::config("nav.field_steps", 0, "must be >= 1"));
-        }
         Ok(())
+    }
+}
+
+/// The keys of `[nav]` that belong to the controller now.
+struct FlatNav;
+
+impl MovedKeys for FlatNav {
+    const TABLE: &'static str = "nav";
+    const KEYS: &'static [(&'static str, &'static str)] = &[
+        ("field", "nav.controller.field"),
+        ("stimulus", "nav.controller.stimulus"),
+        ("camera", "nav.controller.camera"),
+        ("visual", "nav.controller.visual"),
+        ("field_steps", "nav.controller.field_steps"),
+        ("turn_gain", "nav.controller.turn_gain"),
+        ("max_turn_rate", "nav.controller.max_turn_rate"),
+        ("rear_inhibition", "nav.controller.rear_inhibition"),
+    ];
+    const WHY: &'static str = "the controller's settings are in [nav.controller]";
+}
+
+/// The `[nav]` table as read: the episode's keys, and the controller's old ones, which only
+/// refuse.
+#[derive(Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct NavTable {
+    controller: ControllerConfig,
+    lidar: LidarConfig,
+    control_period: Option<f32>,
+    max_time: Option<f32>,
+    goal_tolerance: Option<f32>,
+    substep: Option<f32>,
+    #[serde(rename = "field")]
+    _0: Moved<FlatNav, 0>,
+    #[serde(rename = "stimulus")]
+    _1: Moved<FlatNav, 1>,
+    #[serde(rename = "camera")]
+    _2: Moved<FlatNav, 2>,
+    #[serde(rename = "visual")]
+    _3: Moved<FlatNav, 3>,
+    #[serde(rename = "field_steps")]
+    _4: Moved<FlatNav, 4>,
+    #[serde(rename = "turn_gain")]
+    _5: Moved<FlatNav, 5>,
+    #[serde(rename = "max_turn_rate")]
+    _6: Moved<FlatNav, 6>,
+    #[serde(rename = "rear_inhibition")]
+    _7: Moved<FlatNav, 7>,
+}
+
+impl From<NavTable> for EpisodeConfig {
+    fn from(t: NavTable) -> Self {
+        let d = EpisodeConfig::default();
+        Self {
+            controller: t.controller,
+            lidar: t.lidar,
+            control_period: t.control_period.unwrap_or(d.control_period),
+            max_time: t.max_time.unwrap_or(d.max_time),
+            goal_tolerance: t.goal_tolerance.unwrap_or(d.goal_tolerance),
+            substep: t.substep.unwrap_or(d.substep),
+        }
     }
 }
 
@@ -149,7 +164,7 @@ pub struct Episode {
 /// controller for a command from φ_F and moves.
 pub struct Robot<'a> {
     world: &'a World,
-    cfg: &'a NavConfig,
+    cfg: &'a EpisodeConfig,
     mode: Mode,
     controller: Controller,
     rng: Rng,
@@ -168,7 +183,7 @@ impl<'a> Robot<'a> {
     /// model (trained further online in fusion mode).
     pub fn new(
         world: &'a World,
-        cfg: &'a NavConfig,
+        cfg: &'a EpisodeConfig,
         mode: Mode,
         model: VisualObstacleModel,
         seed: u64,
@@ -186,7 +201,7 @@ impl<'a> Robot<'a> {
             world,
             cfg,
             mode,
-            controller: Controller::new(cfg.clone(), mode, model)?,
+            controller: Controller::new(cfg.controller.clone(), mode, model)?,
             rng: Rng(seed),
             pose,
             scan,
@@ -216,11 +231,13 @@ impl<'a> Robot<'a> {
     }
 
     /// Scans (and in fusion mode looks), and returns the controller's stimulus for the field.
-    pub fn sense(&mut self, gist: Option<&GistEngine>) -> Result<Vec<f32>> {
+    pub fn sense(&mut self, gist: Option<&Gist>) -> Result<Vec<f32>> {
         let (cfg, world, pose) = (self.cfg, self.world, self.pose);
         self.scan.ranges = cfg.lidar.scan(world, pose, &mut self.rng);
         let view = match (self.mode, gist) {
-            (Mode::Fusion, Some(engine)) => Some((cfg.camera.render(world, pose), engine)),
+            (Mode::Fusion, Some(engine)) => {
+                Some((cfg.controller.camera.render(world, pose), engine))
+            }
             _ => None,
         };
         let target = (world.goal[1] - pose[1]).atan2(world.goal[0] - pose[0]);
@@ -279,18 +296,18 @@ impl<'a> Robot<'a> {
 /// sensor noise.
 pub fn run(
     world: &World,
-    cfg: &NavConfig,
+    cfg: &EpisodeConfig,
     mode: Mode,
     model: &mut VisualObstacleModel,
-    gist: Option<&GistEngine>,
+    gist: Option<&Gist>,
     seed: u64,
     record_field: bool,
 ) -> Result<Episode> {
-    let mut field = FieldBatch::new(cfg.field.clone(), 1)?;
+    let mut field = FieldBatch::new(cfg.controller.field.clone(), 1)?;
     let mut robot = Robot::new(world, cfg, mode, std::mem::take(model), seed, record_field)?;
     while !robot.done() {
         let s = robot.sense(gist)?;
-        field.step(&s, cfg.field_steps)?;
+        field.step(&s, cfg.controller.field_steps)?;
         robot.act(field.field(0));
     }
     let (episode, learned) = robot.finish();
@@ -313,14 +330,17 @@ pub enum Fields {
 pub fn run_lockstep(
     mut robots: Vec<Robot<'_>>,
     fields: &mut Fields,
-    gist: Option<&GistEngine>,
+    gist: Option<&Gist>,
     progress: impl Fn() + Sync,
 ) -> Result<Vec<Episode>> {
     use rayon::prelude::*;
     let Some(first) = robots.first() else {
         return Ok(Vec::new());
     };
-    let (n, steps) = (first.cfg.field.neurons, first.cfg.field_steps);
+    let (n, steps) = (
+        first.cfg.controller.field.neurons,
+        first.cfg.controller.field_steps,
+    );
     let b = robots.len();
     let mut stimulus = vec![0.0f32; b * n];
     let mut finished = vec![false; b];

@@ -9,14 +9,15 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::episode::{run, run_lockstep, Episode, Fields, Mode, NavConfig, Outcome, Robot};
-use super::visual::VisualObstacleModel;
+use super::episode::{run, run_lockstep, Episode, EpisodeConfig, Fields, Outcome, Robot};
 use super::world::World;
 use crate::error::Result;
 use crate::gpu::GpuContext;
+use crate::nav::controller::Mode;
 use crate::nav::dnf::FieldBatch;
 use crate::nav::dnf::GpuFieldBatch;
-use crate::nav::gist::GistEngine;
+use crate::nav::gist::Gist;
+use crate::nav::visual::VisualObstacleModel;
 
 /// Figures of one mode over a set of episodes.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -89,8 +90,8 @@ pub fn summarise(episodes: &[Episode]) -> ModeSummary {
 
 /// Trains a visual model on `count` random worlds (seeds disjoint from the evaluation's).
 pub fn train_visual_model(
-    cfg: &NavConfig,
-    gist: &GistEngine,
+    cfg: &EpisodeConfig,
+    gist: &Gist,
     settings: &EvalSettings,
 ) -> Result<VisualObstacleModel> {
     let mut model = VisualObstacleModel::default();
@@ -111,10 +112,14 @@ pub fn train_visual_model(
 }
 
 /// The fields of `count` lockstep episodes: on the CPU, or on the GPU when `gpu` is given.
-pub fn fields(cfg: &NavConfig, count: usize, gpu: Option<&Arc<GpuContext>>) -> Result<Fields> {
+pub fn fields(cfg: &EpisodeConfig, count: usize, gpu: Option<&Arc<GpuContext>>) -> Result<Fields> {
     Ok(match gpu {
-        Some(ctx) => Fields::Gpu(GpuFieldBatch::new(ctx.clone(), cfg.field.clone(), count)?),
-        None => Fields::Cpu(FieldBatch::new(cfg.field.clone(), count)?),
+        Some(ctx) => Fields::Gpu(GpuFieldBatch::new(
+            ctx.clone(),
+            cfg.controller.field.clone(),
+            count,
+        )?),
+        None => Fields::Cpu(FieldBatch::new(cfg.controller.field.clone(), count)?),
     })
 }
 
@@ -123,8 +128,8 @@ pub fn fields(cfg: &NavConfig, count: usize, gpu: Option<&Arc<GpuContext>>) -> R
 /// its world (so callers can make every obstacle visible for the control set). `progress` is
 /// called once per finished episode.
 pub fn compare(
-    cfg: &NavConfig,
-    gist: &GistEngine,
+    cfg: &EpisodeConfig,
+    gist: &Gist,
     model: &VisualObstacleModel,
     settings: &EvalSettings,
     worlds: impl Fn(usize) -> World,
@@ -147,11 +152,11 @@ pub fn compare(
 /// copy of `model`.
 pub fn run_worlds(
     worlds: &[World],
-    cfg: &NavConfig,
+    cfg: &EpisodeConfig,
     mode: Mode,
     model: &VisualObstacleModel,
     settings: &EvalSettings,
-    (gist, gpu): (&GistEngine, Option<&Arc<GpuContext>>),
+    (gist, gpu): (&Gist, Option<&Arc<GpuContext>>),
     progress: impl Fn() + Sync,
 ) -> Result<Vec<Episode>> {
     let robots = worlds

@@ -1,5 +1,5 @@
-//! The 2D navigation simulator (paper section 4.2): worlds, sensors, the learned GIST
-//! stimulus, and episodes driven by the dynamic neural field.
+//! The 2D navigation simulator (paper section 4.2): worlds, sensors, and episodes in which
+//! the robot's [`crate::nav::controller::Controller`] drives the dynamic neural field.
 
 pub mod episode;
 pub mod evaluate;
@@ -7,5 +7,4 @@ pub mod evaluate;
 pub mod figure;
 pub mod sensors;
 pub mod sweep;
-pub mod visual;
 pub mod world;

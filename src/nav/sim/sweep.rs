@@ -7,14 +7,15 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::episode::{Mode, NavConfig};
+use super::episode::EpisodeConfig;
 use super::evaluate::{evaluation_world, run_worlds, summarise, EvalSettings, ModeSummary};
-use super::visual::VisualObstacleModel;
 use super::world::World;
 use crate::error::Result;
 use crate::gpu::GpuContext;
+use crate::nav::controller::Mode;
 use crate::nav::dnf::Interaction;
-use crate::nav::gist::GistEngine;
+use crate::nav::gist::Gist;
+use crate::nav::visual::VisualObstacleModel;
 use crate::rng::Rng;
 
 /// The parameters a candidate sets.
@@ -49,19 +50,19 @@ pub struct SweepRow {
 
 impl Candidate {
     /// The candidate of `base`.
-    pub fn of(base: &NavConfig) -> Self {
-        let inhibit = match base.field.interaction {
+    pub fn of(base: &EpisodeConfig) -> Self {
+        let inhibit = match base.controller.field.interaction {
             Interaction::Amari { inhibit, .. } => inhibit,
             Interaction::GaussianDifference { .. } => -2.2,
         };
         Self {
-            tau: base.field.tau,
-            h: base.field.h,
+            tau: base.controller.field.tau,
+            h: base.controller.field.h,
             inhibit,
-            c_o: base.stimulus.c_o,
-            sigma: base.stimulus.sigma,
-            g_scale: base.stimulus.g_scale,
-            turn_gain: base.turn_gain,
+            c_o: base.controller.stimulus.c_o,
+            sigma: base.controller.stimulus.sigma,
+            g_scale: base.controller.stimulus.g_scale,
+            turn_gain: base.controller.turn_gain,
         }
     }
 
@@ -80,21 +81,21 @@ impl Candidate {
     }
 
     /// `base` with this candidate's values.
-    pub fn apply(&self, base: &NavConfig) -> NavConfig {
+    pub fn apply(&self, base: &EpisodeConfig) -> EpisodeConfig {
         let mut cfg = base.clone();
-        cfg.field.tau = self.tau;
-        cfg.field.h = self.h;
-        if let Interaction::Amari { excite, width, .. } = base.field.interaction {
-            cfg.field.interaction = Interaction::Amari {
+        cfg.controller.field.tau = self.tau;
+        cfg.controller.field.h = self.h;
+        if let Interaction::Amari { excite, width, .. } = base.controller.field.interaction {
+            cfg.controller.field.interaction = Interaction::Amari {
                 excite,
                 inhibit: self.inhibit,
                 width,
             };
         }
-        cfg.stimulus.c_o = self.c_o;
-        cfg.stimulus.sigma = self.sigma;
-        cfg.stimulus.g_scale = self.g_scale;
-        cfg.turn_gain = self.turn_gain;
+        cfg.controller.stimulus.c_o = self.c_o;
+        cfg.controller.stimulus.sigma = self.sigma;
+        cfg.controller.stimulus.g_scale = self.g_scale;
+        cfg.controller.turn_gain = self.turn_gain;
         cfg
     }
 }
@@ -102,8 +103,8 @@ impl Candidate {
 /// Runs `samples` random candidates plus the base configuration in `mode` on the same worlds;
 /// rows come back best first. `progress` is called once per finished episode.
 pub fn sweep(
-    base: &NavConfig,
-    gist: &GistEngine,
+    base: &EpisodeConfig,
+    gist: &Gist,
     model: &VisualObstacleModel,
     (mode, samples): (Mode, usize),
     settings: &EvalSettings,
