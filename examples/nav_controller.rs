@@ -3,7 +3,8 @@
 //! pillar between the robot and its goal), cast analytically; on a robot they come from the
 //! scanner driver in the same form (`angle_min`, `angle_increment`, ranges):
 //! `cargo run --release --example nav_controller`.
-use steernav::nav::controller::{Controller, ControllerConfig, LaserScan, Mode};
+use steernav::nav::Mode;
+use steernav::{Controller, ControllerConfig, LaserScan};
 
 /// Range from `origin` along `angle` to a circle (centre, radius), or `max` when it misses.
 fn ray_to_circle(origin: [f32; 2], angle: f32, centre: [f32; 2], radius: f32, max: f32) -> f32 {

@@ -1,10 +1,8 @@
 //! A SLAM frame loop as a robot program runs it: one frame at a time from a camera (here the
 //! synthetic drive, rendered in memory), its pose and covariance read back after each frame:
 //! `cargo run --release --example slam_loop`.
-use steernav::slam::config::SlamConfig;
 use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
-use steernav::slam::tracker::Slam;
-use steernav::{Backend, Detector, DetectorConfig};
+use steernav::{Backend, Detector, DetectorConfig, Slam, SlamConfig};
 
 fn main() -> Result<(), steernav::Error> {
     let camera_rig = SyntheticSequence::new(SyntheticConfig {

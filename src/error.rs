@@ -91,8 +91,10 @@ fn locate(text: &str, offset: usize) -> (Option<usize>, Option<String>, Option<S
     (Some(line_no), table, key)
 }
 
-/// Everything that can go wrong in steernav's library code.
+/// Everything that can go wrong in steernav's library code. New variants may come: match with
+/// a catch-all arm.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// A file could not be read or written.
     #[error("{path}: {source}")]
@@ -162,6 +164,15 @@ pub enum Error {
         #[source]
         source: Option<BoxError>,
     },
+    /// Bad input at run time — a timestamp, a laser scan, a frame the mode needs — as opposed
+    /// to a bad setting ([`Error::Config`]).
+    #[error("{input}: {reason}")]
+    Input {
+        /// What was given, with its value where that helps (`scan.ranges[3] = NaN`).
+        input: String,
+        /// Why it was refused.
+        reason: String,
+    },
     /// The GPU device cannot hold the work (a limit of the device is exceeded).
     #[error("GPU limit exceeded: {0}")]
     GpuLimit(String),
@@ -177,6 +188,14 @@ pub enum Error {
 }
 
 impl Error {
+    /// An [`Error::Input`].
+    pub fn input(input: impl Into<String>, reason: impl Into<String>) -> Self {
+        Error::Input {
+            input: input.into(),
+            reason: reason.into(),
+        }
+    }
+
     /// A [`Error::ConfigFile`] for `path` from a message with no further location.
     pub fn config_file(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         Error::ConfigFile {

@@ -2,9 +2,27 @@
 //!
 //! GPU-accelerated perception and navigation for mobile robots, after the paper *Accurate
 //! Robot Navigation Using Visual Invariant Features and Dynamic Neural Fields*:
-//! rotation-invariant keypoints ([`features`], eqs 3–10), monocular EKF SLAM ([`slam`],
-//! eqs 13–27), a dynamic neural field driven by a LIDAR and the camera's GIST ([`nav`],
-//! eqs 28–45), and their evaluation ([`eval`], eqs 11–12). Every GPU stage has a CPU twin.
+//! rotation- and scale-invariant keypoints ([`features`], eqs 3–10), monocular EKF SLAM
+//! ([`slam`], eqs 13–27), a dynamic neural field driven by a LIDAR and the camera's GIST
+//! ([`nav`], eqs 28–45), and their evaluation ([`eval`], eqs 11–12). Every GPU stage has a
+//! CPU twin that gives the same results within a stated tolerance.
+//!
+//! ## Where to start
+//!
+//! What a robot program needs is at the crate root:
+//!
+//! | to… | use |
+//! |---|---|
+//! | find keypoints in a [`Frame`] | [`Detector`] with a [`DetectorConfig`], on a [`Backend`]; each [`Keypoint`] carries its descriptor |
+//! | run monocular SLAM | [`Slam`] with a [`PinholeCamera`] and a [`SlamConfig`]; each frame gives a [`FrameReport`] |
+//! | steer with the neural field | [`Controller`] with a [`ControllerConfig`]; a [`LaserScan`] in, a [`Command`] out |
+//! | share your own wgpu device | [`GpuContext::from_device`], then `Detector::with_context` |
+//! | read every table of one TOML file | [`Settings`] |
+//! | handle failures | [`Error`] (typed, sources kept) |
+//!
+//! The modules hold the rest: the evaluation ([`eval`]), the datasets and trajectories of
+//! SLAM ([`slam::data`]), the simulator ([`nav::sim`]), the GIST engines ([`nav::gist`]), and
+//! the stages' own drivers for those who test or extend them.
 //!
 //! The library never prints: warnings and fallbacks go through `log`, errors are [`Error`].
 //! With `default-features = false` it builds without the CLI's crates.
@@ -61,11 +79,16 @@ pub mod gpu;
 pub mod image;
 pub mod rng;
 pub mod settings;
-pub mod simd;
+pub(crate) mod simd;
 
 pub use error::{Error, Result};
 pub use features::{Backend, Detection, Detector, DetectorConfig, Keypoint};
+pub use gpu::GpuContext;
 pub use image::Frame;
+pub use nav::{Command, Controller, ControllerConfig, LaserScan};
+pub use settings::Settings;
+pub use slam::camera::PinholeCamera;
+pub use slam::{FrameReport, Slam, SlamConfig};
 pub mod eval;
 pub mod nav;
 pub mod output;

@@ -7,7 +7,7 @@
 //! - **homography accuracy**: the homography RANSAC fits to the matches (3 px) moves the four
 //!   image corners by a mean of at most 1, 3 or 5 px from where the true map sends them;
 //! - **repeatability** at 3 px (eq 11) and under the region-overlap criterion
-//!   ([`super::overlap`]), which also asks the scales to follow the map.
+//!   (`eval::overlap`), which also asks the scales to follow the map.
 //!
 //! The same code judges steernav and every peer, on the same keypoint count.
 

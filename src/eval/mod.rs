@@ -3,7 +3,7 @@
 
 pub mod homography;
 pub mod matching;
-pub mod overlap;
+pub(crate) mod overlap;
 pub mod peers;
 pub mod recall;
 pub mod repeatability;

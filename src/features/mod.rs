@@ -2,15 +2,15 @@
 //! Harris on every steered image, two-stage merge, 5-entropy colour descriptor.
 
 pub mod config;
-pub mod convolve;
+pub(crate) mod convolve;
 pub mod descriptor;
 pub mod detector;
 pub mod filter_bank;
 pub mod harris;
 pub mod matching;
 pub mod merge;
-pub mod pyramid;
-pub mod steerable;
+pub(crate) mod pyramid;
+pub(crate) mod steerable;
 pub mod steered;
 
 use serde::{Deserialize, Serialize};

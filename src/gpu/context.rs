@@ -1,6 +1,6 @@
 //! The GPU context: a wgpu device and queue, either the process-wide one steernav creates
 //! ([`GpuContext::shared`]) or one the application owns ([`GpuContext::from_device`]). Each
-//! stage compiles its pipelines on its first use on a context (see [`super::pipelines`]).
+//! stage compiles its pipelines on its first use on a context (see `gpu::pipelines`).
 
 use std::sync::{Arc, Mutex};
 

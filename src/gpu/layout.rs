@@ -3,6 +3,8 @@
 //! every field's name, offset and scalar type. A unit test beside each driver checks that
 //! record against the WGSL declaration of the same name, parsed by naga (`check`), so a
 //! field added, reordered or retyped on one side only fails a test instead of reading garbage.
+// The record is read by those tests only.
+#![cfg_attr(not(test), allow(dead_code))]
 
 /// A WGSL scalar type, as a Rust field of a shared struct may have.
 pub trait WgslScalar {

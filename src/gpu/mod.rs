@@ -3,9 +3,8 @@
 //! live beside their CPU twins (`features::harris::gpu`, `nav::dnf::gpu`, `nav::gist::gpu`).
 
 pub mod context;
-pub mod layout;
-
-pub mod pipelines;
-pub mod util;
+pub(crate) mod layout;
+pub(crate) mod pipelines;
+pub(crate) mod util;
 
 pub use context::{gpu_required, GpuContext};

@@ -145,9 +145,8 @@ impl LaserScan {
     /// fewer than two beams, or a range_max that is not positive.
     pub fn validate(&self) -> Result<()> {
         if self.ranges.len() != self.bearings.len() || self.ranges.len() < 2 {
-            return Err(Error::config(
-                "scan.ranges",
-                self.ranges.len(),
+            return Err(Error::input(
+                format!("scan.ranges ({} beams)", self.ranges.len()),
                 format!(
                     "needs ≥ 2 beams, one bearing each ({} bearings)",
                     self.bearings.len()
@@ -155,30 +154,26 @@ impl LaserScan {
             ));
         }
         if let Some(i) = self.ranges.iter().position(|r| r.is_nan()) {
-            return Err(Error::config(
-                "scan.ranges",
-                format!("[{i}] = NaN"),
+            return Err(Error::input(
+                format!("scan.ranges[{i}] = NaN"),
                 "must be a number",
             ));
         }
         if let Some(i) = self.bearings.iter().position(|b| !b.is_finite()) {
-            return Err(Error::config(
-                "scan.bearings",
-                format!("[{i}]"),
+            return Err(Error::input(
+                format!("scan.bearings[{i}] = {}", self.bearings[i]),
                 "must be finite",
             ));
         }
         if !(self.angle_increment.is_finite() && self.angle_increment != 0.0) {
-            return Err(Error::config(
-                "scan.angle_increment",
-                self.angle_increment,
+            return Err(Error::input(
+                format!("scan.angle_increment = {}", self.angle_increment),
                 "must be finite and non-zero",
             ));
         }
         if self.range_max.is_nan() || self.range_max <= 0.0 {
-            return Err(Error::config(
-                "scan.range_max",
-                self.range_max,
+            return Err(Error::input(
+                format!("scan.range_max = {}", self.range_max),
                 "must be > 0",
             ));
         }
@@ -313,7 +308,10 @@ impl Controller {
         let mut obstacle = obstacle_stimulus(&near_ranges, &world_bearings, &beam_cfg, n)?;
         if self.mode == Mode::Fusion {
             let (view, engine) = camera.ok_or_else(|| {
-                Error::config("mode", "fusion", "needs a camera frame and a GIST engine")
+                Error::input(
+                    "camera (none given)",
+                    "fusion mode needs a camera frame and a GIST engine",
+                )
             })?;
             let blocks = cfg.visual.gist.blocks;
             let features = sector_features(&engine.describe(view)?, blocks);

@@ -204,9 +204,8 @@ pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
         deviation += angle_diff(heading, target).abs().to_degrees() as f64;
     }
     if evaluated == 0 {
-        return Err(Error::config(
-            "scans",
-            scans.len(),
+        return Err(Error::input(
+            format!("{} scans", scans.len()),
             format!(
                 "no scan has a later pose at least min_motion = {} m away: nothing to evaluate",
                 cfg.min_motion

@@ -1,7 +1,7 @@
 //! The steerable filter bank itself (eqs 3–4): basis responses I * B_i and the steered images
 //! F(θ_n) = Σ c_i(θ_n)(I * B_i). CPU twin of `shaders/filter_bank_steer.wgsl` (driven by
 //! [`crate::features::filter_bank::gpu`]). The detector never materialises F(θ): it steers the gradient
-//! basis instead (see [`crate::features::steerable`]); these images are for inspection and parity.
+//! basis instead (see `features::steerable`); these images are for inspection and parity.
 
 use rayon::prelude::*;
 

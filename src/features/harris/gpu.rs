@@ -1,7 +1,7 @@
 //! GPU backend of the multiscale steered Harris stage (eqs 4–8): drives
 //! `shaders/harris_{convolve,products,response,nms}.wgsl`. CPU twin: [`super::cpu`]. The image
 //! pyramid of the octaves is built on the device with the convolution shader at step 2 (twin:
-//! [`crate::features::pyramid`]), inside the first filter-bank pass.
+//! `features::pyramid`), inside the first filter-bank pass.
 //!
 //! Per frame: one upload of the luminance plane, every scale's passes recorded into one command
 //! encoder, one submission, then a readback of the candidate counter followed by exactly the

@@ -2,7 +2,7 @@
 //! the derivative filters D_k at σ_e, the integration window w(σ_I), the sampling grid, and the
 //! Harris response R = det − k·tr² (eq 8). Built once per configuration and image size.
 //!
-//! Why the plan steers gradients and never filtered images: see [`crate::features::steerable`].
+//! Why the plan steers gradients and never filtered images: see `features::steerable`.
 //!
 //! **Octaves.** The derivative filters of a coarse scale run on an image pyramid (each level
 //! blurred and decimated by 2), on the coarsest level where σ_e still spans

@@ -208,14 +208,16 @@ impl Slam {
             });
         }
         if !timestamp.is_finite() {
-            return Err(Error::config("timestamp", timestamp, "must be finite"));
+            return Err(Error::input(
+                format!("timestamp {timestamp}"),
+                "must be finite",
+            ));
         }
         if let Some(prev) = self.last_time {
             let dt = timestamp - prev;
             if dt <= 0.0 {
-                return Err(Error::config(
-                    "timestamp",
-                    timestamp,
+                return Err(Error::input(
+                    format!("timestamp {timestamp}"),
                     format!("must increase (previous frame at {prev})"),
                 ));
             }
