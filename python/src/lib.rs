@@ -702,20 +702,21 @@ fn match_keypoints<'py>(
     iterations: usize,
     seed: u64,
 ) -> PyResult<Bound<'py, PyDict>> {
-    use steernav_core::features::matching::{mutual_matches, verify as check, Verification};
-    let model: Verification = verify
+    use steernav_core::features::matching::{MatchSettings, Matched, Verification};
+    let verification: Verification = verify
         .parse()
         .map_err(|e: steernav_core::error::Error| PyValueError::new_err(format!("verify: {e}")))?;
-    if !(ratio > 0.0 && ratio <= 1.0) {
-        return Err(PyValueError::new_err(format!(
-            "ratio {ratio}: must be in (0, 1]"
-        )));
-    }
-    if !(threshold.is_finite() && threshold > 0.0 && (1..=1_000_000).contains(&iterations)) {
-        return Err(PyValueError::new_err(format!(
-            "threshold {threshold} must be > 0 pixels and iterations {iterations} in 1..=1000000"
-        )));
-    }
+    let settings = MatchSettings {
+        ratio,
+        verification,
+        inlier_threshold: threshold,
+        iterations,
+        seed,
+    };
+    // The library names its field; Python calls the threshold `threshold`.
+    settings.validate().map_err(|e| {
+        PyValueError::new_err(e.to_string().replace("inlier_threshold", "threshold"))
+    })?;
     let set = |kp: &PyReadonlyArray2<'_, f32>,
                desc: &PyReadonlyArray2<'_, f32>,
                what: &str|
@@ -735,31 +736,9 @@ fn match_keypoints<'py>(
             .collect::<Vec<_>>())
     };
     let (a, b) = (set(&kp1, &desc1, "kp1")?, set(&kp2, &desc2, "kp2")?);
-    if a.first()
-        .zip(b.first())
-        .is_some_and(|(p, q)| p.descriptor.len() != q.descriptor.len())
-    {
-        return Err(PyValueError::new_err(
-            "desc1 and desc2 have different lengths: describe both images the same way",
-        ));
-    }
-    if a.first().is_some_and(|p| p.descriptor.is_empty()) {
-        return Err(PyValueError::new_err(
-            "desc1 and desc2 are empty (descriptor = \"none\"): nothing to match on",
-        ));
-    }
-    let (matches, verified) = py.detach(|| {
-        let matches = mutual_matches(&a, &b, ratio);
-        let pairs: Vec<_> = matches
-            .iter()
-            .map(|m| {
-                let (p, q) = (&a[m.i], &b[m.j]);
-                ((p.x as f64, p.y as f64), (q.x as f64, q.y as f64))
-            })
-            .collect();
-        let verified = check(&pairs, model, threshold, iterations, seed);
-        (matches, verified)
-    });
+    let Matched { matches, verified } = py
+        .detach(|| settings.run(&a, &b))
+        .map_err(|e| PyValueError::new_err(format!("desc1, desc2: {e}")))?;
     let out = PyDict::new(py);
     let column = |f: fn(&steernav_core::features::matching::Match) -> usize| {
         Array1::from_iter(matches.iter().map(f)).into_pyarray(py)

@@ -179,3 +179,9 @@ def test_match_keypoints_on_a_quarter_turn(sample):
     assert m["model"].shape == (3, 3)
     with pytest.raises(ValueError, match="verify"):
         steernav.match_keypoints(a.xy, a.descriptor, b.xy, b.descriptor, verify="affine")
+    with pytest.raises(ValueError, match="ratio"):
+        steernav.match_keypoints(a.xy, a.descriptor, b.xy, b.descriptor, ratio=1.5)
+    with pytest.raises(ValueError, match="threshold"):
+        steernav.match_keypoints(a.xy, a.descriptor, b.xy, b.descriptor, threshold=0.0)
+    with pytest.raises(ValueError, match="described the same way"):
+        steernav.match_keypoints(a.xy, a.descriptor, b.xy, np.ascontiguousarray(b.descriptor[:, :5]))

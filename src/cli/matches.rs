@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use clap::Args;
 use serde::Serialize;
-use steernav::features::matching::{mutual_matches, verify, Verification};
+use steernav::features::matching::{MatchSettings, Matched, Verification};
 use steernav::features::DescriptorKind;
 use steernav::Frame;
 
@@ -75,18 +75,22 @@ struct MatchRow {
 }
 
 pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
-    if !(cmd.ratio > 0.0 && cmd.ratio <= 1.0) {
-        anyhow::bail!("--ratio {}: must be in (0, 1]", cmd.ratio);
-    }
-    if !(cmd.inlier_threshold.is_finite() && cmd.inlier_threshold > 0.0) {
-        anyhow::bail!(
-            "--inlier-threshold {}: must be a positive number of pixels",
-            cmd.inlier_threshold
-        );
-    }
-    if cmd.iterations == 0 || cmd.iterations > 1_000_000 {
-        anyhow::bail!("--iterations {}: must be in 1..=1000000", cmd.iterations);
-    }
+    let settings = MatchSettings {
+        ratio: cmd.ratio,
+        verification: cmd.verify,
+        inlier_threshold: cmd.inlier_threshold,
+        iterations: cmd.iterations,
+        seed: 1,
+    };
+    // The library names the setting; the command line says it as the flag.
+    settings.validate().map_err(|e| match e {
+        steernav::Error::Config {
+            field,
+            value,
+            reason,
+        } => anyhow::anyhow!("--{} {value}: {reason}", field.replace('_', "-")),
+        other => other.into(),
+    })?;
     if cmd.detector.config()?.descriptor == DescriptorKind::None {
         anyhow::bail!("--descriptor none: the keypoints would carry nothing to match on");
     }
@@ -100,13 +104,7 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
     };
     let (f1, d1) = load(&cmd.first)?;
     let (f2, d2) = load(&cmd.second)?;
-    let matches = mutual_matches(&d1.keypoints, &d2.keypoints, cmd.ratio);
-    let point = |k: &steernav::Keypoint| (k.x as f64, k.y as f64);
-    let pairs: Vec<_> = matches
-        .iter()
-        .map(|m| (point(&d1.keypoints[m.i]), point(&d2.keypoints[m.j])))
-        .collect();
-    let verified = verify(&pairs, cmd.verify, cmd.inlier_threshold, cmd.iterations, 1);
+    let Matched { matches, verified } = settings.run(&d1.keypoints, &d2.keypoints)?;
     let inliers = verified.inliers.iter().filter(|&&b| b).count();
     let rows: Vec<MatchRow> = matches
         .iter()

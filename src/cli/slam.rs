@@ -6,13 +6,13 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::Args;
-use steernav::slam::camera::PinholeCamera;
 use steernav::slam::data::figure::{slam_figure, EstimatedPose};
 use steernav::slam::data::kitti;
+use steernav::slam::data::odometry::OdometryTrack;
 use steernav::slam::data::sequence;
 use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::data::trajectory::{self, tum_line, Pose};
-use steernav::slam::motion::{relative_motion, MotionModel};
+use steernav::slam::motion::MotionModel;
 use steernav::slam::tracker::{FrameReport, Slam};
 use steernav::Frame;
 
@@ -132,37 +132,15 @@ pub struct SlamSynthCmd {
 
 pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let seq = sequence::open(&cmd.sequence, cmd.fps)?;
-    let calib_path = cmd
-        .calib
-        .clone()
-        .or_else(|| seq.calibration.clone())
-        .with_context(|| {
-            format!(
-                "{}: no calibration; pass --calib CALIB.toml",
+    let camera = seq.camera(cmd.calib.as_deref()).map_err(|e| match e {
+        steernav::Error::Input { reason, .. } if reason.starts_with("no calibration") => {
+            anyhow::anyhow!(
+                "{}: {reason}; pass --calib CALIB.toml",
                 cmd.sequence.display()
             )
-        })?;
-    let camera = if calib_path.extension().is_some_and(|e| e == "txt") {
-        let first = &seq.frames[0].path;
-        let (width, height) = image::image_dimensions(first)
-            .with_context(|| format!("{}: cannot read the image size", first.display()))?;
-        kitti::read_calibration(&calib_path, width, height)?
-    } else {
-        PinholeCamera::load(&calib_path)?
-    };
-    // The frames must be the calibration's size; say so before the run, not frame by frame.
-    let first = &seq.frames[0].path;
-    let (width, height) = image::image_dimensions(first)
-        .with_context(|| format!("{}: cannot read the image size", first.display()))?;
-    if (width, height) != (camera.width, camera.height) {
-        bail!(
-            "{}: frames are {width}x{height} but the calibration {} is for {}x{}",
-            cmd.sequence.display(),
-            calib_path.display(),
-            camera.width,
-            camera.height
-        );
-    }
+        }
+        other => other.into(),
+    })?;
     let frame_times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
     let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
     let truth = match &truth_path {
@@ -170,12 +148,12 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let mut config = cmd.detector.config.settings()?.slam;
-    let odometry = match &cmd.odometry {
+    let mut odometry = match &cmd.odometry {
         Some(path) => {
             if matches!(config.motion, MotionModel::ConstantVelocity { .. }) {
                 config.motion = MotionModel::odometry();
             }
-            Some(trajectory::read_tum(path)?)
+            Some(OdometryTrack::load(path)?)
         }
         None => None,
     };
@@ -209,7 +187,6 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let mut estimated: Vec<EstimatedPose> = Vec::new();
     let mut reports: Vec<FrameReport> = Vec::new();
     let mut skipped = 0usize;
-    let mut previous_odometry: Option<Pose> = None;
     // SIGINT or SIGTERM stops after the current frame; the map, the figure and the
     // evaluation of the frames done are still written.
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -242,28 +219,12 @@ pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 continue;
             }
         };
-        let step = match &odometry {
-            Some(odo) => {
-                let Some(now) = trajectory::interpolate(odo, item.timestamp) else {
-                    bar.suspend(|| {
-                        eprintln!(
-                            "warning: no odometry at t={}; frame skipped",
-                            item.timestamp
-                        )
-                    });
-                    skipped += 1;
-                    continue;
-                };
-                let step = previous_odometry.map(|prev| {
-                    relative_motion(
-                        &prev.position,
-                        &prev.orientation,
-                        &now.position,
-                        &now.orientation,
-                    )
-                });
-                previous_odometry = Some(now);
-                step
+        let step = match odometry.as_mut().map(|track| track.step_to(item.timestamp)) {
+            Some(Ok(step)) => step,
+            Some(Err(e)) => {
+                bar.suspend(|| eprintln!("warning: {e}; frame skipped"));
+                skipped += 1;
+                continue;
             }
             None => None,
         };

@@ -89,6 +89,108 @@ pub struct Verified {
     pub inliers: Vec<bool>,
 }
 
+/// How two keypoint sets are matched and verified: mutual nearest neighbours passing Lowe's
+/// ratio test both ways, then RANSAC. The CLI's `match` and the Python `match` take these.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MatchSettings {
+    /// Lowe's ratio, in (0, 1]: a match's distance must be below ratio × the second nearest's.
+    pub ratio: f32,
+    /// The geometric check.
+    pub verification: Verification,
+    /// RANSAC inlier threshold, pixels (transfer error, or Sampson distance).
+    pub inlier_threshold: f64,
+    /// Most RANSAC iterations, 1 to 1 000 000 (fewer when 99.9% confidence allows).
+    pub iterations: usize,
+    /// Seed of RANSAC's draws.
+    pub seed: u64,
+}
+
+impl Default for MatchSettings {
+    fn default() -> Self {
+        Self {
+            ratio: 0.8,
+            verification: Verification::Homography,
+            inlier_threshold: 3.0,
+            iterations: 10_000,
+            seed: 1,
+        }
+    }
+}
+
+/// Matches of two keypoint sets and their verification, one inlier flag per match.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Matched {
+    /// Sorted by descriptor distance.
+    pub matches: Vec<Match>,
+    /// The fitted model and the inlier flags, in the order of `matches`.
+    pub verified: Verified,
+}
+
+impl MatchSettings {
+    /// Checks every value, naming the bad one.
+    pub fn validate(&self) -> crate::error::Result<()> {
+        use crate::error::Error;
+        if !(self.ratio > 0.0 && self.ratio <= 1.0) {
+            return Err(Error::config("ratio", self.ratio, "must be in (0, 1]"));
+        }
+        if !(self.inlier_threshold.is_finite() && self.inlier_threshold > 0.0) {
+            return Err(Error::config(
+                "inlier_threshold",
+                self.inlier_threshold,
+                "must be a positive number of pixels",
+            ));
+        }
+        if !(1..=1_000_000).contains(&self.iterations) {
+            return Err(Error::config(
+                "iterations",
+                self.iterations,
+                "must be in 1..=1000000",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Matches `a` to `b` and verifies the matches. Both sets must carry descriptors of one
+    /// length; sets without descriptors are refused, since nothing could match.
+    pub fn run(&self, a: &[Keypoint], b: &[Keypoint]) -> crate::error::Result<Matched> {
+        use crate::error::Error;
+        self.validate()?;
+        if let (Some(p), Some(q)) = (a.first(), b.first()) {
+            if p.descriptor.len() != q.descriptor.len() {
+                return Err(Error::input(
+                    format!(
+                        "descriptors of {} and {} values",
+                        p.descriptor.len(),
+                        q.descriptor.len()
+                    ),
+                    "both sets must be described the same way",
+                ));
+            }
+            if p.descriptor.is_empty() {
+                return Err(Error::input(
+                    "keypoints without descriptors (descriptor = \"none\")",
+                    "nothing to match on",
+                ));
+            }
+        }
+        let matches = mutual_matches(a, b, self.ratio);
+        let point = |k: &Keypoint| (k.x as f64, k.y as f64);
+        let pairs: Vec<PointPair> = matches
+            .iter()
+            .map(|m| (point(&a[m.i]), point(&b[m.j])))
+            .collect();
+        let verified = verify(
+            &pairs,
+            self.verification,
+            self.inlier_threshold,
+            self.iterations,
+            self.seed,
+        );
+        Ok(Matched { matches, verified })
+    }
+}
+
 /// Pixel correspondences (x₁, y₁) → (x₂, y₂).
 pub type PointPair = ((f64, f64), (f64, f64));
 
@@ -279,6 +381,49 @@ fn sampson_error(f: &Matrix3<f64>, &((x, y), (u, v)): &PointPair) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn keypoint(x: f32, descriptor: Vec<f32>) -> Keypoint {
+        Keypoint {
+            x,
+            y: 0.0,
+            scale: 1.0,
+            angle: 0.0,
+            response: 1.0,
+            descriptor,
+        }
+    }
+
+    #[test]
+    fn match_settings_refuse_bad_values_and_sets_that_cannot_match() {
+        let bad = MatchSettings {
+            ratio: 0.0,
+            ..MatchSettings::default()
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("ratio"));
+        let bad = MatchSettings {
+            iterations: 0,
+            ..MatchSettings::default()
+        };
+        assert!(bad
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("iterations"));
+        let settings = MatchSettings {
+            verification: Verification::None,
+            ..MatchSettings::default()
+        };
+        let a = vec![keypoint(0.0, vec![0.0, 1.0]), keypoint(5.0, vec![1.0, 0.0])];
+        let matched = settings.run(&a, &a).unwrap();
+        assert_eq!(matched.matches.len(), 2);
+        assert_eq!(matched.verified.inliers, vec![true, true]);
+        let short = vec![keypoint(0.0, vec![0.0])];
+        let e = settings.run(&a, &short).unwrap_err().to_string();
+        assert!(e.contains("described the same way"), "{e}");
+        let bare = vec![keypoint(0.0, Vec::new())];
+        let e = settings.run(&bare, &bare).unwrap_err().to_string();
+        assert!(e.contains("nothing to match on"), "{e}");
+    }
 
     #[test]
     fn ransac_finds_a_homography_and_a_fundamental_matrix_among_outliers() {

@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::slam::camera::PinholeCamera;
 
 /// One frame of a sequence.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +31,51 @@ pub struct Sequence {
     /// A calibration found beside the frames (EuRoC sensor.yaml, KITTI calib.txt, calib.toml
     /// beside a TUM rgb.txt).
     pub calibration: Option<PathBuf>,
+}
+
+impl Sequence {
+    /// The camera the frames were taken with: from `calibration` when given, else from the
+    /// sequence's own file ([`Sequence::calibration`]). The format follows the extension — a
+    /// KITTI `calib.txt` (row P0; the image size from the first frame), a EuRoC `sensor.yaml`,
+    /// or TOML with a `[camera]` table — and the frames must be the calibration's size, which
+    /// is checked here, before any frame is processed.
+    pub fn camera(&self, calibration: Option<&Path>) -> Result<PinholeCamera> {
+        let first = &self
+            .frames
+            .first()
+            .ok_or_else(|| Error::input("sequence", "has no frames"))?
+            .path;
+        let path = calibration.or(self.calibration.as_deref()).ok_or_else(|| {
+            Error::input(
+                first.parent().unwrap_or(first).display().to_string(),
+                "no calibration beside the frames, and none given",
+            )
+        })?;
+        let (width, height) = image::image_dimensions(first).map_err(|e| Error::Decode {
+            path: first.clone(),
+            reason: "cannot read the image size".into(),
+            source: Some(Box::new(e)),
+        })?;
+        let camera = if path.extension().is_some_and(|e| e == "txt") {
+            super::kitti::read_calibration(path, width, height)?
+        } else {
+            PinholeCamera::load(path)?
+        };
+        if (width, height) != (camera.width, camera.height) {
+            return Err(Error::ImageSize {
+                input: first.display().to_string(),
+                width,
+                height,
+                reason: format!(
+                    "the calibration {} is for {}x{}",
+                    path.display(),
+                    camera.width,
+                    camera.height
+                ),
+            });
+        }
+        Ok(camera)
+    }
 }
 
 const IMAGE_EXTENSIONS: [&str; 7] = ["png", "jpg", "jpeg", "pgm", "ppm", "bmp", "tif"];
