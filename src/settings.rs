@@ -31,6 +31,8 @@ pub struct Settings {
     /// `[synthetic]`: the generated SLAM sequence (slam-synth).
     pub synthetic: SyntheticConfig,
     present: Vec<String>,
+    /// The `[detector]` table as written, for [`Settings::detector_over`].
+    detector_table: Option<toml::Table>,
 }
 
 /// The file as serde reads it, so that parser errors keep their position in the text.
@@ -64,8 +66,27 @@ impl Settings {
             nav: file.nav,
             replay: file.replay,
             synthetic: file.synthetic,
+            detector_table: tables.get("detector").and_then(|t| t.as_table()).cloned(),
             present: tables.keys().cloned().collect(),
         })
+    }
+
+    /// The file's `[detector]` keys over `base` instead of over the library defaults: a
+    /// command with its own preset (slam's tracking preset) keeps what the file leaves out.
+    pub fn detector_over(&self, base: DetectorConfig) -> Result<DetectorConfig> {
+        let Some(table) = &self.detector_table else {
+            return Ok(base);
+        };
+        let invalid = |reason: String| Error::config("detector", "(the [detector] table)", reason);
+        let mut merged = toml::Table::try_from(&base).map_err(|e| invalid(e.to_string()))?;
+        for (key, value) in table {
+            merged.insert(key.clone(), value.clone());
+        }
+        let config: DetectorConfig = toml::Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| invalid(e.to_string()))?;
+        config.validate()?;
+        Ok(config)
     }
 
     /// Whether the file had this table (a command may start from its own preset otherwise).
@@ -161,6 +182,17 @@ mod tests {
         assert!(
             text.contains("moved to `nav.controller.turn_gain`"),
             "{text}"
+        );
+        // A command's own preset keeps what the file's [detector] leaves out.
+        let s = Settings::from_toml_str("[detector]\nmax_keypoints = 77\n").unwrap();
+        let over = s.detector_over(DetectorConfig::tracking()).unwrap();
+        assert_eq!(over.max_keypoints, 77);
+        assert_eq!(over.scales, DetectorConfig::tracking().scales);
+        assert_eq!(
+            Settings::default()
+                .detector_over(DetectorConfig::tracking())
+                .unwrap(),
+            DetectorConfig::tracking()
         );
         let e = Settings::from_toml_str("[detectr]\n")
             .unwrap_err()

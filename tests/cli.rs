@@ -222,7 +222,10 @@ fn eval_rotation_writes_the_csv_and_the_figure() {
     );
     let img = dir.path().join("small.png");
     small.save(&img).unwrap();
-    let (csv, png) = (dir.path().join("r.csv"), dir.path().join("r.png"));
+    let (csv, png) = (
+        dir.path().join("rotation.csv"),
+        dir.path().join("rotation.png"),
+    );
     let out = run_ok(
         steernav()
             .args([
@@ -237,10 +240,8 @@ fn eval_rotation_writes_the_csv_and_the_figure() {
                 "--images",
             ])
             .arg(&img)
-            .arg("--csv")
-            .arg(&csv)
-            .arg("--plot")
-            .arg(&png),
+            .arg("--out")
+            .arg(dir.path()),
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -315,7 +316,13 @@ fn bench_prints_json_rows_with_the_documented_keys() {
 fn slam_synth_slam_and_slam_eval_work_end_to_end() {
     let dir = tempfile::tempdir().unwrap();
     let seq = dir.path().join("room");
-    run_ok(steernav().args(["slam-synth", seq.to_str().unwrap(), "--frames", "30"]));
+    run_ok(steernav().args([
+        "slam-synth",
+        "--out",
+        seq.to_str().unwrap(),
+        "--frames",
+        "30",
+    ]));
     let traj = dir.path().join("trajectory.txt");
     let map = dir.path().join("map.json");
     let plot = dir.path().join("slam.png");
@@ -530,7 +537,13 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     std::fs::write(&config, "[synthetic]\nk1 = 0.0\n").unwrap();
     run_ok(
         steernav()
-            .args(["slam-synth", synth.to_str().unwrap(), "--motion", "drive"])
+            .args([
+                "slam-synth",
+                "--out",
+                synth.to_str().unwrap(),
+                "--motion",
+                "drive",
+            ])
             .args(["--frames", "20", "--config", config.to_str().unwrap()]),
     );
     // The KITTI layout: image_0/, calib.txt (labelled P0 row), poses.txt; no times.txt.
@@ -613,7 +626,13 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
 fn slam_refuses_a_calibration_of_another_size_before_the_run() {
     let dir = tempfile::tempdir().unwrap();
     let seq = dir.path().join("room");
-    run_ok(steernav().args(["slam-synth", seq.to_str().unwrap(), "--frames", "3"]));
+    run_ok(steernav().args([
+        "slam-synth",
+        "--out",
+        seq.to_str().unwrap(),
+        "--frames",
+        "3",
+    ]));
     let calib = dir.path().join("wide.toml");
     std::fs::write(
         &calib,
@@ -816,7 +835,7 @@ fn slam_interrupted_by_sigterm_still_writes_the_map_and_the_figure() {
     let seq = dir.path().join("drive");
     run_ok(
         steernav()
-            .args(["slam-synth", "--motion", "drive", "--frames", "80"])
+            .args(["slam-synth", "--motion", "drive", "--frames", "80", "--out"])
             .arg(&seq),
     );
     let out_dir = dir.path().join("out");

@@ -76,11 +76,11 @@ fn the_match_command_writes_the_documented_json_and_a_picture() {
         p
     };
     let (a, b) = (save(&scene, "a.png"), save(&turned, "b.png"));
-    let picture = dir.path().join("matches.png");
+    let picture = dir.path().join("a_b_matches.png");
     let out = run_ok(
         steernav()
-            .args(["match", "--backend", "cpu", "--json", "--draw"])
-            .arg(&picture)
+            .args(["match", "--backend", "cpu", "--json", "--draw", "--out"])
+            .arg(dir.path())
             .args([&a, &b]),
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();

@@ -21,8 +21,7 @@ if [ -d "$OXFORD" ]; then
     done
   done
 fi
-./target/release/steernav eval rotation --images "${images[@]}" --angles 0:360:15 \
-  --csv "$OUT/rotation.csv" --plot "$OUT/rotation.png"
+./target/release/steernav eval rotation --images "${images[@]}" --angles 0:360:15 --out "$OUT"
 if [ ${#sequences[@]} -gt 0 ]; then
   ./target/release/steernav eval homography "${sequences[@]}" --out "$OUT"
 fi

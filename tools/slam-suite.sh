@@ -32,7 +32,7 @@ synth() { # name motion seed fps
   [ -n "$4" ] && printf 'fps = %s\n' "$4" >>"$cfg"
   local frames=()
   [ "$2" = drive ] && [ -n "$4" ] && frames=(--frames 30)
-  "$bin" slam-synth "$dir" --motion "$2" --config "$cfg" "${frames[@]}" >/dev/null
+  "$bin" slam-synth --out "$dir" --motion "$2" --config "$cfg" "${frames[@]}" >/dev/null
 }
 
 # A KITTI clip made of the frames of $src listed (0-based) on stdin, in that order.

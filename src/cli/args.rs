@@ -74,15 +74,10 @@ impl DetectorArgs {
         Ok(Detector::new(&self.config()?, self.backend.backend)?)
     }
 
-    /// The detector with `base` in place of the library default when the settings file has
-    /// no [detector] table, the flags over either.
+    /// The detector from `base` in place of the library defaults: the settings file's
+    /// [detector] keys over it, the flags over both.
     pub fn detector_from(&self, base: DetectorConfig) -> anyhow::Result<Detector> {
-        let settings = self.config.settings()?;
-        let config = if settings.has("detector") {
-            settings.detector
-        } else {
-            base
-        };
+        let config = self.config.settings()?.detector_over(base)?;
         Ok(Detector::new(
             &self.flags.apply(config)?,
             self.backend.backend,

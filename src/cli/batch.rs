@@ -132,7 +132,7 @@ fn output_path(opts: &BatchOptions, image: &Path) -> PathBuf {
 
 /// Runs the batch; returns every entry (in input order). Failures of single images are in the
 /// entries, not errors; an error means the batch itself could not run (e.g. no input dir).
-pub fn run(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
+pub fn run_tree(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
     let images = list_images(&opts.input, &opts.output)?;
     std::fs::create_dir_all(&opts.output).map_err(|source| Error::Io {
         path: opts.output.clone(),
@@ -377,7 +377,7 @@ pub struct BatchCmd {
     draw: bool,
 }
 
-pub fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
+pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
     let detector = cmd.detector.detector()?;
     let opts = BatchOptions {
         input: cmd.input,
@@ -387,7 +387,7 @@ pub fn run_batch(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
         progress: true,
         max_pixels: cmd.detector.max_pixels,
     };
-    let entries = run(&detector, &opts)?;
+    let entries = run_tree(&detector, &opts)?;
     let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
     let done = count(|o| matches!(o, Outcome::Done { damaged: None, .. }));
     let damaged = count(|o| {

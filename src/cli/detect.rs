@@ -60,7 +60,7 @@ fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
     )
 }
 
-pub fn detect(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
+pub fn run(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
     if cmd.images.len() > 1 && cmd.out.is_none() && cmd.csv {
         bail!("several images with --csv need --out DIR (one CSV per image)");
     }

@@ -19,7 +19,7 @@ pub struct GistCmd {
     backend: BackendArg,
 }
 
-pub fn gist(cmd: GistCmd) -> anyhow::Result<ExitCode> {
+pub fn run(cmd: GistCmd) -> anyhow::Result<ExitCode> {
     let cfg = cmd.config.settings()?.gist;
     let engine = steernav::nav::gist::GistEngine::new(cfg.clone())?;
     let ctx = cmd.backend.backend.resolve()?;

@@ -2,7 +2,7 @@
 
 use std::process::ExitCode;
 
-pub fn info() -> anyhow::Result<ExitCode> {
+pub fn run() -> anyhow::Result<ExitCode> {
     println!("steernav {}", env!("CARGO_PKG_VERSION"));
     println!("cpu threads: {}", rayon::current_num_threads());
     match steernav::gpu::GpuContext::shared() {

@@ -28,7 +28,12 @@ mod gist;
 mod info;
 mod matches;
 mod nav;
+mod nav_eval;
+mod nav_replay;
+mod nav_sweep;
 mod slam;
+mod slam_eval;
+mod slam_synth;
 
 use std::process::ExitCode;
 
@@ -37,7 +42,16 @@ use clap::{Parser, Subcommand};
 /// GPU-accelerated rotation-invariant keypoints, monocular EKF SLAM and dynamic-neural-field
 /// navigation.
 #[derive(Parser)]
-#[command(name = "steernav", version, about, long_about = None)]
+#[command(
+    name = "steernav",
+    version,
+    about,
+    long_about = None,
+    after_help = "Flags mean one thing everywhere: a switch never takes a value (--json, --csv, \
+                  --draw, --force); a command's files go to --out DIR, under names it states; a \
+                  flag that takes a FILE is named for what the file holds (--calib, --map, \
+                  --plot, --report, --config). Settings files are TOML with one table per stage."
+)]
 struct Cli {
     /// Print the library's informational messages too, not only its warnings.
     #[arg(long, short, global = true)]
@@ -65,24 +79,24 @@ enum Command {
     Gist(gist::GistCmd),
     /// Drive the neural field with every scan of a CARMEN log (FLASER lines, gzipped or not):
     /// fraction of scans whose chosen heading is free, and its deviation from the real motion.
-    NavReplay(nav::NavReplayCmd),
+    NavReplay(nav_replay::NavReplayCmd),
     /// Monocular EKF SLAM with inverse-depth landmarks on an image sequence: TUM trajectory,
     /// map with covariances, figures, and ATE when ground truth is present.
     Slam(Box<slam::SlamCmd>),
     /// ATE after Sim(3) alignment and RPE of a TUM trajectory against ground truth.
-    SlamEval(slam::SlamEvalCmd),
+    SlamEval(slam_eval::SlamEvalCmd),
     /// Render a synthetic sequence with exact ground truth (TUM RGB-D layout + calib.toml).
-    SlamSynth(slam::SlamSynthCmd),
+    SlamSynth(slam_synth::SlamSynthCmd),
     /// One navigation episode in the 2D simulator (LIDAR alone or fused with the camera's
     /// GIST), with a figure of the trajectory and the field activity.
     Nav(nav::NavCmd),
     /// Random worlds driven with the LIDAR alone and with fusion: success, collisions, path
     /// length, time to goal and position error, on worlds with and without LIDAR-invisible
     /// obstacles.
-    NavEval(nav::NavEvalCmd),
+    NavEval(nav_eval::NavEvalCmd),
     /// Random search over the field's and the stimuli's parameters, every candidate on the
     /// same random worlds; prints the best as a config file.
-    NavSweep(nav::NavSweepCmd),
+    NavSweep(nav_sweep::NavSweepCmd),
     /// Print the GPU adapter, backend, driver and the limits that matter.
     Info,
 }
@@ -124,21 +138,21 @@ fn main() -> ExitCode {
         });
     }
     let result = match cli.command {
-        Command::Detect(cmd) => detect::detect(cmd),
+        Command::Detect(cmd) => detect::run(cmd),
         Command::Match(cmd) => matches::run(cmd),
-        Command::Batch(cmd) => batch::run_batch(cmd),
-        Command::Eval(eval::EvalKind::Rotation(cmd)) => eval::eval_rotation(cmd),
-        Command::Eval(eval::EvalKind::Homography(cmd)) => eval::eval_homography(cmd),
-        Command::Bench(cmd) => bench::bench(cmd),
-        Command::NavReplay(cmd) => nav::nav_replay(cmd),
-        Command::Gist(cmd) => gist::gist(cmd),
-        Command::Slam(cmd) => slam::slam(*cmd),
-        Command::SlamEval(cmd) => slam::slam_eval(cmd),
-        Command::SlamSynth(cmd) => slam::slam_synth(cmd),
-        Command::Nav(cmd) => nav::nav(cmd),
-        Command::NavEval(cmd) => nav::nav_eval(cmd),
-        Command::NavSweep(cmd) => nav::nav_sweep(cmd),
-        Command::Info => info::info(),
+        Command::Batch(cmd) => batch::run(cmd),
+        Command::Eval(eval::EvalKind::Rotation(cmd)) => eval::rotation::run(cmd),
+        Command::Eval(eval::EvalKind::Homography(cmd)) => eval::homography::run(cmd),
+        Command::Bench(cmd) => bench::run(cmd),
+        Command::NavReplay(cmd) => nav_replay::run(cmd),
+        Command::Gist(cmd) => gist::run(cmd),
+        Command::Slam(cmd) => slam::run(*cmd),
+        Command::SlamEval(cmd) => slam_eval::run(cmd),
+        Command::SlamSynth(cmd) => slam_synth::run(cmd),
+        Command::Nav(cmd) => nav::run(cmd),
+        Command::NavEval(cmd) => nav_eval::run(cmd),
+        Command::NavSweep(cmd) => nav_sweep::run(cmd),
+        Command::Info => info::run(),
     };
     // Whatever was printed must reach stdout before the exit code says it did.
     let flushed = std::io::Write::flush(&mut std::io::stdout()).map_err(StdoutFailed);

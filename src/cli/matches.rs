@@ -43,9 +43,13 @@ pub struct MatchCmd {
     /// stdout instead of a summary.
     #[arg(long)]
     json: bool,
-    /// Also draw both images side by side with inliers in green and outliers in red (PNG).
-    #[arg(long, value_name = "FILE")]
-    draw: Option<PathBuf>,
+    /// Also draw both images side by side, inliers in green and outliers in red, to
+    /// `--out`/<first>_<second>_matches.png.
+    #[arg(long)]
+    draw: bool,
+    /// Directory receiving the drawing.
+    #[arg(long, value_name = "DIR", default_value = ".")]
+    out: PathBuf,
 }
 
 #[derive(Serialize)]
@@ -123,7 +127,14 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
             }
         })
         .collect();
-    if let Some(path) = &cmd.draw {
+    if cmd.draw {
+        std::fs::create_dir_all(&cmd.out)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create: {e}", cmd.out.display()))?;
+        let path = &cmd.out.join(format!(
+            "{}_{}_matches.png",
+            crate::args::stem(&cmd.first),
+            crate::args::stem(&cmd.second)
+        ));
         let ends: Vec<_> = rows
             .iter()
             .map(|r| ((r.x1, r.y1), (r.x2, r.y2), r.inlier))

@@ -1,4 +1,5 @@
-//! The `slam`, `slam-eval` and `slam-synth` subcommands.
+//! `steernav slam`: monocular EKF SLAM on an image sequence — the trajectory frame by frame,
+//! the map, the figure, the per-frame report, and the ATE when ground truth is there.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -10,15 +11,12 @@ use steernav::slam::data::figure::{slam_figure, EstimatedPose};
 use steernav::slam::data::kitti;
 use steernav::slam::data::odometry::OdometryTrack;
 use steernav::slam::data::sequence;
-use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::data::trajectory::{self, tum_line, Pose};
 use steernav::slam::motion::MotionModel;
 use steernav::slam::tracker::{FrameReport, Slam};
 use steernav::Frame;
 
 use crate::args::{progress, DetectorArgs};
-
-/// The columns of `--report`.
 
 #[derive(Args)]
 pub struct SlamCmd {
@@ -66,19 +64,10 @@ pub struct SlamCmd {
     #[arg(long, value_name = "FILE")]
     ground_truth: Option<PathBuf>,
     /// The backend, the settings file ([slam] and [detector] tables) and detector flags;
-    /// without a [detector] table, slam starts from the tracking preset (6 orientations, 3
-    /// scales) rather than detect's defaults.
+    /// slam starts from the tracking preset (6 orientations, 3 scales, no descriptor) rather
+    /// than detect's defaults, and a [detector] table's keys apply over it.
     #[command(flatten)]
     detector: DetectorArgs,
-}
-
-/// The motions of `slam-synth`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum MotionArg {
-    /// Hand-held loop in a room.
-    Room,
-    /// A car driving with turns.
-    Drive,
 }
 
 /// How a trajectory is written.
@@ -90,47 +79,7 @@ pub enum TrajectoryFormat {
     Kitti,
 }
 
-#[derive(Args)]
-pub struct SlamEvalCmd {
-    /// Estimated trajectory (TUM format, or KITTI pose rows).
-    estimate: PathBuf,
-    /// Ground truth (TUM format, EuRoC state_groundtruth_estimate0/data.csv, or KITTI pose
-    /// rows).
-    ground_truth: PathBuf,
-    /// Timestamps of KITTI pose rows: a KITTI times.txt (otherwise row i is at i / --fps).
-    #[arg(long, value_name = "FILE")]
-    times: Option<PathBuf>,
-    /// Frame rate of KITTI pose rows without --times.
-    #[arg(long, default_value_t = 10.0)]
-    fps: f64,
-    /// Largest timestamp difference of a matched pair, seconds.
-    #[arg(long, default_value_t = 0.02)]
-    max_dt: f64,
-    /// Print {"ate_rmse", "rpe_trans", "scale", "path_length", "matched"} as JSON (rpe_trans
-    /// is null when the matched poses span less than its 1 s interval).
-    #[arg(long)]
-    json: bool,
-}
-
-#[derive(Args)]
-pub struct SlamSynthCmd {
-    /// Output folder (TUM RGB-D layout: rgb/, rgb.txt, groundtruth.txt, calib.toml).
-    out: PathBuf,
-    /// Number of frames [default: 240 for room, 60 for drive].
-    #[arg(long)]
-    frames: Option<usize>,
-    /// The camera's motion: `room` (a hand-held loop in a room, 30 Hz) or `drive` (a car at
-    /// 10 m/s and 10 Hz with turns, scene depths 3–50 m). Each has its own defaults.
-    #[arg(long, value_enum, default_value_t = MotionArg::Room)]
-    motion: MotionArg,
-    /// Settings file whose [synthetic] table (width, height, fov_deg, k1, fps, room,
-    /// amplitude, speed, camera_height, period, texels_per_metre, seed) goes over the motion's
-    /// defaults; --frames overrides.
-    #[arg(long, value_name = "FILE")]
-    config: Option<PathBuf>,
-}
-
-pub fn slam(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
+pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let seq = sequence::open(&cmd.sequence, cmd.fps)?;
     let camera = seq.camera(cmd.calib.as_deref()).map_err(|e| match e {
         steernav::Error::Input { reason, .. } if reason.starts_with("no calibration") => {
@@ -372,99 +321,4 @@ fn write_map(path: &Path, map: &[steernav::slam::tracker::MapPoint]) -> anyhow::
     steernav::output::write_atomic(path, text.as_bytes())?;
     println!("map: {} ({} landmarks)", path.display(), map.len());
     Ok(())
-}
-
-pub fn slam_eval(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
-    if !(cmd.max_dt.is_finite() && cmd.max_dt > 0.0) {
-        bail!("--max-dt: {} must be finite and > 0", cmd.max_dt);
-    }
-    let kitti_times = |rows: usize| -> anyhow::Result<Vec<f64>> {
-        match &cmd.times {
-            Some(path) => Ok(kitti::read_times(path)?),
-            None => {
-                if !(cmd.fps.is_finite() && cmd.fps > 0.0) {
-                    bail!("--fps: {} must be finite and > 0", cmd.fps);
-                }
-                Ok((0..rows).map(|i| i as f64 / cmd.fps).collect())
-            }
-        }
-    };
-    let read = |path: &Path| -> anyhow::Result<Vec<Pose>> {
-        if kitti::looks_like_poses(path) {
-            let rows = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read", path.display()))?
-                .lines()
-                .filter(|l| !l.trim().is_empty())
-                .count();
-            Ok(kitti::read_poses(path, &kitti_times(rows)?)?)
-        } else {
-            Ok(sequence::read_ground_truth(path, &[])?)
-        }
-    };
-    let estimate = read(&cmd.estimate)?;
-    let truth = read(&cmd.ground_truth)?;
-    let e = trajectory::evaluate(&estimate, &truth, cmd.max_dt)?;
-    if cmd.json {
-        println!("{}", serde_json::to_string(&e)?);
-    } else {
-        println!(
-            "ATE RMSE {:.4} m ({:.2}% of the {:.3} m path), {}, scale {:.4}, {} poses matched",
-            e.ate_rmse,
-            100.0 * e.ate_rmse / e.path_length.max(1e-12),
-            e.path_length,
-            e.rpe_text(),
-            e.scale,
-            e.matched
-        );
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-pub fn slam_synth(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
-    let motion = match cmd.motion {
-        MotionArg::Room => SyntheticMotion::Room,
-        MotionArg::Drive => SyntheticMotion::Drive,
-    };
-    let mut config = SyntheticConfig::for_motion(motion);
-    if let Some(path) = &cmd.config {
-        // The file's keys go over the motion's defaults (unknown keys still refused).
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("{}: cannot read config", path.display()))?;
-        // Checked as a whole first, so a stray table or key is refused by name.
-        steernav::settings::Settings::from_toml_str(&text)
-            .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?;
-        let mut file: toml::Table = toml::from_str(&text)?;
-        let over = match file.remove("synthetic") {
-            Some(toml::Value::Table(t)) => t,
-            _ => toml::Table::new(),
-        };
-        let mut merged = toml::Table::try_from(&config)?;
-        merged.extend(over);
-        config = merged
-            .try_into()
-            .map_err(|e| anyhow::anyhow!("{}: malformed config: {e}", path.display()))?;
-        if config.motion != motion {
-            bail!(
-                "{}: motion = {:?} contradicts --motion {:?}",
-                path.display(),
-                config.motion,
-                cmd.motion
-            );
-        }
-    }
-    if let Some(frames) = cmd.frames {
-        config.frames = frames;
-    }
-    let seq = SyntheticSequence::new(config)?;
-    let bar = progress(seq.poses.len(), "frames");
-    seq.write_tum_layout(&cmd.out, |_| bar.inc(1))?;
-    bar.finish_and_clear();
-    println!(
-        "{}: {} frames, {:.2} m path; run `steernav slam {}`",
-        cmd.out.display(),
-        seq.poses.len(),
-        seq.path_length(),
-        cmd.out.display(),
-    );
-    Ok(ExitCode::SUCCESS)
 }

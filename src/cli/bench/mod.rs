@@ -60,7 +60,7 @@ pub struct BenchCmd {
     config: ConfigArg,
 }
 
-pub fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
+pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     let default_sizes = if cmd.suite == Suite::Slam {
         "640x480,1241x376"
     } else {
@@ -131,7 +131,7 @@ pub fn bench(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::SUCCESS);
     }
-    let rows = run(&config, &sizes, &backends, cmd.warmup, cmd.runs, &bar)?;
+    let rows = time_detect(&config, &sizes, &backends, cmd.warmup, cmd.runs, &bar)?;
     bar.finish_and_clear();
     if cmd.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
@@ -229,7 +229,7 @@ pub fn parse_sizes(spec: &str) -> std::result::Result<Vec<(u32, u32)>, String> {
 }
 
 /// Runs the benchmark. `runs` timed runs follow `warmup` untimed ones per size and backend.
-pub fn run(
+pub fn time_detect(
     config: &DetectorConfig,
     sizes: &[(u32, u32)],
     backends: &[Backend],

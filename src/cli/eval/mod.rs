@@ -1,33 +1,32 @@
 //! `steernav eval rotation|homography`: repeatability (eq 11) and recall (eq 12) of steernav
 //! and OpenCV's classic detectors, as a table, a CSV and a figure.
 
+pub mod homography;
+pub mod rotation;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::{Args, Subcommand};
-use steernav::eval::matching::{self, PairMatching};
 use steernav::eval::peers::{PeerRunner, ALL_PEERS};
-use steernav::eval::sweep::{
-    homography_sequence, parse_angles, rotation_sweep, summarize, summary_table, to_csv,
-    EvalOptions, Row,
-};
+use steernav::eval::sweep::{summarize, summary_table, to_csv, EvalOptions, Row};
 use steernav::output::write_atomic;
 use steernav::Detector;
 
-use crate::args::{stem, DetectorArgs};
+use crate::args::DetectorArgs;
 
 #[derive(Subcommand)]
 pub enum EvalKind {
     /// Rotate each image about its centre (expanded canvas) by every angle and compare.
-    Rotation(RotationCmd),
+    Rotation(rotation::RotationCmd),
     /// Compare img1 with img2..img6 of Oxford-layout sequences (imgN + H1toNp files).
-    Homography(HomographyCmd),
+    Homography(homography::HomographyCmd),
 }
 
 /// Settings shared by the evaluations.
 #[derive(Args)]
-struct EvalArgs {
+pub(super) struct EvalArgs {
     /// Detectors to compare: "all" (steernav and every peer the installed OpenCV has) or a
     /// list from steernav,agast,brisk,censure,orb,sift,surf,fast,kaze,akaze,harris.
     #[arg(long, default_value = "all", value_name = "LIST")]
@@ -52,38 +51,8 @@ struct EvalArgs {
     detector: DetectorArgs,
 }
 
-#[derive(Args)]
-pub struct RotationCmd {
-    /// Images to rotate.
-    #[arg(long, required = true, num_args = 1.., value_name = "IMG")]
-    images: Vec<PathBuf>,
-    /// Angles in degrees: start:stop:step (stop excluded) or a list.
-    #[arg(long, default_value = "0:360:15", value_name = "SPEC")]
-    angles: String,
-    /// Write every row (detector,image,angle,eps,repeatability,recall,count) to this CSV.
-    #[arg(long, value_name = "FILE")]
-    csv: Option<PathBuf>,
-    /// Write repeatability and recall against angle (paper Fig. 4a–b) to this PNG.
-    #[arg(long, value_name = "FILE")]
-    plot: Option<PathBuf>,
-    #[command(flatten)]
-    eval: EvalArgs,
-}
-
-#[derive(Args)]
-pub struct HomographyCmd {
-    /// Sequence directories (img1..img6 as PPM/PGM/PNG, H1to2p..H1to6p).
-    #[arg(required = true, value_name = "DIR")]
-    sequences: Vec<PathBuf>,
-    /// Directory receiving <sequence>.csv and <sequence>.png.
-    #[arg(long, default_value = "eval-out", value_name = "DIR")]
-    out: PathBuf,
-    #[command(flatten)]
-    eval: EvalArgs,
-}
-
 /// Everything an evaluation needs: steernav (if selected), the peers that run, options.
-struct EvalSetup {
+pub(super) struct EvalSetup {
     steernav: Option<Detector>,
     runner: Option<PeerRunner>,
     peers: Vec<String>,
@@ -91,7 +60,7 @@ struct EvalSetup {
 }
 
 impl EvalArgs {
-    fn setup(&self) -> anyhow::Result<EvalSetup> {
+    pub(super) fn setup(&self) -> anyhow::Result<EvalSetup> {
         let eps: Vec<f64> = self
             .eps
             .split(',')
@@ -187,7 +156,7 @@ impl EvalArgs {
 }
 
 impl EvalSetup {
-    fn peers(&self) -> Option<(&PeerRunner, &[String])> {
+    pub(super) fn peers(&self) -> Option<(&PeerRunner, &[String])> {
         self.runner
             .as_ref()
             .filter(|_| !self.peers.is_empty())
@@ -195,75 +164,7 @@ impl EvalSetup {
     }
 }
 
-pub fn eval_rotation(cmd: RotationCmd) -> anyhow::Result<ExitCode> {
-    let angles = parse_angles(&cmd.angles).map_err(anyhow::Error::msg)?;
-    let setup = cmd.eval.setup()?;
-    let per_image =
-        angles.len() as u64 * (setup.steernav.is_some() as u64 + setup.peers().is_some() as u64);
-    let bar = indicatif::ProgressBar::new(per_image * cmd.images.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} views  {per_sec}  ETA {eta}")
-            .expect("valid template"),
-    );
-    let rows = rotation_sweep(
-        &cmd.images,
-        &angles,
-        setup.steernav.as_ref(),
-        setup.peers(),
-        &setup.options,
-        &|n| bar.inc(n),
-    )?;
-    bar.finish_and_clear();
-    report(
-        &rows,
-        cmd.csv.as_deref(),
-        cmd.plot.as_deref(),
-        "rotation",
-        "angle (degrees)",
-        "angle",
-    )
-}
-
-pub fn eval_homography(cmd: HomographyCmd) -> anyhow::Result<ExitCode> {
-    let setup = cmd.eval.setup()?;
-    let mut all_matching = Vec::new();
-    for dir in &cmd.sequences {
-        let (rows, matching) =
-            homography_sequence(dir, setup.steernav.as_ref(), setup.peers(), &setup.options)?;
-        let name = stem(dir);
-        println!("== {}", dir.display());
-        report(
-            &rows,
-            Some(&cmd.out.join(format!("{name}.csv"))),
-            Some(&cmd.out.join(format!("{name}.png"))),
-            &name,
-            "image N (img1 against imgN)",
-            "image",
-        )?;
-        report_matching(&matching, &cmd.out, &name)?;
-        all_matching.extend(matching);
-    }
-    if cmd.sequences.len() > 1 {
-        println!("== all sequences");
-        report_matching(&all_matching, &cmd.out, "all")?;
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// Prints the matching summary and writes `<name>_matching.csv` and `<name>_mma.png`.
-fn report_matching(rows: &[PairMatching], out: &Path, name: &str) -> anyhow::Result<()> {
-    let summaries = matching::summarize(rows);
-    print!("{}", matching::summary_table(&summaries));
-    let csv = out.join(format!("{name}_matching.csv"));
-    write_atomic(&csv, matching::to_csv(rows).as_bytes())?;
-    eprintln!("wrote {}", csv.display());
-    let png = out.join(format!("{name}_mma.png"));
-    steernav::plot::mma_figure(&png, &summaries, &format!("{name}: mean matching accuracy"))?;
-    eprintln!("wrote {}", png.display());
-    Ok(())
-}
-
-fn report(
+pub(super) fn report(
     rows: &[Row],
     csv: Option<&Path>,
     plot: Option<&Path>,
