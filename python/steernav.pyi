@@ -67,15 +67,38 @@ class Slam:
         height: int,
         distortion: Optional[Sequence[float]] = None,
         backend: str = "auto",
+        detector: Optional[Dict[str, Any]] = None,
         **settings: Any,
     ) -> None:
-        """distortion: (k1, k2, p1, p2, k3) or a prefix; settings: the [slam] table's keys."""
-    def process(self, image: Image, t: float) -> Dict[str, Any]:
-        """position (3,), quaternion (4,) as (x, y, z, w), covariance (6, 6) of position and
-        rotation vector, and predicted, matched, inliers, created, deleted, landmarks, lost,
-        relocalised, initialising."""
+        """distortion: (k1, k2, p1, p2, k3) or a prefix; detector: [detector] keys over the
+        tracking preset; settings: the [slam] sub-tables (filter, search, ransac, map, start,
+        klt, motion), each a dict."""
+    def process(self, image: Image, t: float) -> "FrameReport":
+        """Processes the frame taken at t seconds (strictly increasing)."""
     def trajectory(self) -> npt.NDArray[np.float64]:
         """(N, 8) TUM rows: t, x, y, z, qx, qy, qz, qw."""
+
+class FrameReport:
+    """What one frame did."""
+
+    timestamp: float
+    position: npt.NDArray[np.float64]
+    """(3,): the camera position after the update."""
+    quaternion: npt.NDArray[np.float64]
+    """(4,): (x, y, z, w), camera to world."""
+    covariance: npt.NDArray[np.float64]
+    """(6, 6): covariance of position and rotation vector."""
+    predicted: int
+    matched: int
+    inliers: int
+    rescued: int
+    created: int
+    deleted: int
+    landmarks: int
+    lost: bool
+    relocalised: bool
+    initialising: bool
+    update_rejected: bool
 
 class Controller:
     """The neural-field navigation controller; keyword arguments are the [nav.controller]
@@ -137,11 +160,23 @@ def match_keypoints(
     threshold: float = 3.0,
     iterations: int = 10000,
     seed: int = 1,
-) -> Dict[str, Any]:
+) -> "Matches":
     """Correspondences as `steernav match` makes them: mutual nearest neighbours passing the
     ratio test both ways, verified by RANSAC ("homography", "fundamental" or "none",
-    `threshold` in pixels). Returns {"i", "j", "distance", "inlier"} arrays and "model", the
-    fitted 3x3 matrix or None."""
+    `threshold` in pixels)."""
+
+class Matches:
+    """Correspondences between two keypoint sets, sorted by descriptor distance."""
+
+    i: npt.NDArray[np.uint64]
+    """(M,): index into the first set."""
+    j: npt.NDArray[np.uint64]
+    """(M,): index into the second set."""
+    distance: npt.NDArray[np.float32]
+    inlier: npt.NDArray[np.bool_]
+    model: Optional[npt.NDArray[np.float64]]
+    """(3, 3): the fitted H or F, or None."""
+    def __len__(self) -> int: ...
 
 def textured_scene(width: int, height: int, seed: int = 1) -> npt.NDArray[np.uint8]:
     """The seeded procedural scene of the benchmarks and tests, (H, W, 3) RGB."""

@@ -74,19 +74,10 @@ impl Settings {
     /// The file's `[detector]` keys over `base` instead of over the library defaults: a
     /// command with its own preset (slam's tracking preset) keeps what the file leaves out.
     pub fn detector_over(&self, base: DetectorConfig) -> Result<DetectorConfig> {
-        let Some(table) = &self.detector_table else {
-            return Ok(base);
-        };
-        let invalid = |reason: String| Error::config("detector", "(the [detector] table)", reason);
-        let mut merged = toml::Table::try_from(&base).map_err(|e| invalid(e.to_string()))?;
-        for (key, value) in table {
-            merged.insert(key.clone(), value.clone());
+        match &self.detector_table {
+            Some(table) => base.overlaid(table),
+            None => Ok(base),
         }
-        let config: DetectorConfig = toml::Value::Table(merged)
-            .try_into()
-            .map_err(|e: toml::de::Error| invalid(e.to_string()))?;
-        config.validate()?;
-        Ok(config)
     }
 
     /// Whether the file had this table (a command may start from its own preset otherwise).

@@ -222,6 +222,21 @@ impl DetectorConfig {
         }
     }
 
+    /// These settings with `keys` (a `[detector]` table's) in place of their own, checked: how
+    /// a command with its own preset takes a user's settings without losing the rest of it.
+    pub fn overlaid(&self, keys: &toml::Table) -> Result<Self> {
+        let invalid = |reason: String| Error::config("detector", "(the [detector] keys)", reason);
+        let mut merged = toml::Table::try_from(self).map_err(|e| invalid(e.to_string()))?;
+        for (key, value) in keys {
+            merged.insert(key.clone(), value.clone());
+        }
+        let config: Self = toml::Value::Table(merged)
+            .try_into()
+            .map_err(|e: toml::de::Error| invalid(e.to_string().trim_end().to_string()))?;
+        config.validate()?;
+        Ok(config)
+    }
+
     /// Checks every value; the error names the field and its valid range.
     pub fn validate(&self) -> Result<()> {
         fn bad(field: &'static str, value: impl ToString, reason: &str) -> Result<()> {

@@ -1,0 +1,60 @@
+"""Detector and Keypoints: the CLI's keypoints for the same pixels, every input layout, and
+bad input as clear exceptions."""
+
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import steernav
+
+
+def test_detect_matches_the_cli(sample, sample_file, cli_exe):
+    ours = steernav.Detector(backend="cpu").detect(sample)
+    cli = subprocess.run(
+        [cli_exe, "detect", "--backend", "cpu", str(sample_file)],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    theirs = json.loads(cli.stdout)["keypoints"]
+    assert len(ours) == len(theirs) > 100
+    xy = np.array([[k["x"], k["y"]] for k in theirs], np.float32)
+    assert np.abs(ours.xy - xy).max() <= 1e-4
+    assert np.allclose(ours.scale, [k["scale"] for k in theirs], atol=1e-4)
+    assert np.allclose(ours.angle, [k["angle"] for k in theirs], atol=1e-4)
+    assert np.allclose(ours.descriptor, [k["descriptor"] for k in theirs], atol=1e-4)
+    assert ours.xy.dtype == np.float32 and ours.descriptor.shape == (len(ours), 128)
+    assert ours.descriptor_kind == "steered"
+    paper = steernav.Detector(backend="cpu", descriptor="entropy").detect(sample)
+    assert paper.descriptor.shape == (len(paper), 5) and paper.descriptor_kind == "entropy"
+
+
+def test_grey_float_and_batch_inputs(sample):
+    det = steernav.Detector(backend="cpu", orientations=8, max_keypoints=100)
+    grey = sample.mean(axis=2).astype(np.float32) / 255.0
+    found = det.detect(grey)
+    assert 0 < len(found) <= 100
+    batch = det.detect_batch([sample, sample[:240, :320].copy(), grey])
+    assert [len(k) for k in batch][0] == len(det.detect(sample))
+    assert len(batch) == 3
+
+
+def test_bad_input_raises_clear_exceptions(sample):
+    with pytest.raises(ValueError, match="orientatons"):
+        steernav.Detector(backend="cpu", orientatons=8)
+    with pytest.raises(ValueError, match="scales"):
+        steernav.Detector(backend="cpu", scales=0)
+    with pytest.raises(ValueError, match="backend"):
+        steernav.Detector(backend="tpu")
+    det = steernav.Detector(backend="cpu")
+    with pytest.raises(TypeError, match="uint8 or float32"):
+        det.detect(sample.astype(np.float64))
+    with pytest.raises(ValueError, match="shape"):
+        det.detect(np.zeros((10, 10, 4), np.uint8))
+    nan = np.full((64, 64), np.nan, np.float32)
+    with pytest.raises(ValueError, match="not finite"):
+        det.detect(nan)
+    with pytest.raises(TypeError):
+        det.detect("not an array")
