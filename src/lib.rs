@@ -77,6 +77,7 @@ pub mod error;
 pub mod features;
 pub mod gpu;
 pub mod image;
+mod moved;
 pub mod rng;
 pub mod settings;
 pub(crate) mod simd;
@@ -93,6 +94,6 @@ pub mod eval;
 pub mod nav;
 pub mod output;
 #[cfg(feature = "plot")]
-pub mod plot;
+pub(crate) mod plot;
 pub mod slam;
 pub mod synth;

@@ -66,7 +66,7 @@ fn rotation_sweep_on_a_small_scene_writes_csv_and_figure() {
         }
     }
     let png = dir.path().join("fig/rotation.png");
-    steernav::plot::metrics_figure(&png, &rows, 2.0, "rotation", "angle").unwrap();
+    steernav::eval::figure::metrics_figure(&png, &rows, 2.0, "rotation", "angle").unwrap();
     let fig = image::open(&png).unwrap();
     assert!(fig.width() > 500 && fig.height() > 300);
 }

@@ -1,6 +1,8 @@
 //! Evaluation of keypoints (paper section 2.4): repeatability (eq 11) and recall (eq 12) under
 //! known maps, rotation sweeps and homography sequences, and the classic detectors as peers.
 
+#[cfg(feature = "plot")]
+pub mod figure;
 pub mod homography;
 pub mod matching;
 pub(crate) mod overlap;

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::klt::KltParams;
 use super::motion::MotionModel;
 use crate::error::{Error, Result};
-use crate::settings::{Moved, MovedKeys};
+use crate::moved::{Moved, MovedKeys};
 
 /// SLAM parameters.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

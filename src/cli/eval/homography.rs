@@ -58,7 +58,11 @@ fn report_matching(rows: &[PairMatching], out: &Path, name: &str) -> anyhow::Res
     write_atomic(&csv, matching::to_csv(rows).as_bytes())?;
     eprintln!("wrote {}", csv.display());
     let png = out.join(format!("{name}_mma.png"));
-    steernav::plot::mma_figure(&png, &summaries, &format!("{name}: mean matching accuracy"))?;
+    steernav::eval::figure::mma_figure(
+        &png,
+        &summaries,
+        &format!("{name}: mean matching accuracy"),
+    )?;
     eprintln!("wrote {}", png.display());
     Ok(())
 }

@@ -178,7 +178,7 @@ pub(super) fn report(
         eprintln!("wrote {}", path.display());
     }
     if let Some(path) = plot {
-        steernav::plot::metrics_figure(
+        steernav::eval::figure::metrics_figure(
             path,
             rows,
             2.0,

@@ -8,13 +8,13 @@ use serde::{Deserialize, Serialize};
 use super::sensors::LidarConfig;
 use super::world::World;
 use crate::error::{Error, Result};
+use crate::moved::{Moved, MovedKeys};
 use crate::nav::controller::{Command, Controller, ControllerConfig, LaserScan, Mode};
 use crate::nav::dnf::FieldBatch;
 use crate::nav::gist::Gist;
 use crate::nav::stimulus::angle_diff;
 use crate::nav::visual::VisualObstacleModel;
 use crate::rng::Rng;
-use crate::settings::{Moved, MovedKeys};
 
 /// Every parameter of an episode (the `[nav]` TOML table): the robot's controller, and what
 /// only the simulator has — the LIDAR, the clock, the goal and the integration.
