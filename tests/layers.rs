@@ -84,7 +84,11 @@ fn imports_run_downward_only() {
         ("settings", &["error", "features", "nav", "slam"]),
     ];
     // The scanner sees imports at all: settings reads the stages' tables.
-    assert!(imports("settings").contains("slam"), "{:?}", imports("settings"));
+    assert!(
+        imports("settings").contains("slam"),
+        "{:?}",
+        imports("settings")
+    );
     let mut wrong = Vec::new();
     for (module, may) in allowed {
         for name in imports(module) {

@@ -58,3 +58,24 @@ pub fn compute_pipeline(
 pub fn single_main(device: &wgpu::Device, (name, source): (&str, &str)) -> wgpu::ComputePipeline {
     compute_pipeline(device, &shader_module(device, name, source), "main")
 }
+
+/// A stage with one WGSL file and one `main` entry point: its `SHADERS` table (what the shader
+/// tests validate) and the pipeline type `$name`, built once per device on first use.
+macro_rules! single_pipeline_stage {
+    ($name:ident, $file:literal) => {
+        /// The stage's WGSL source with its file name.
+        pub const SHADERS: [(&str, &str); 1] = [(
+            $file,
+            include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $file)),
+        )];
+
+        struct $name(wgpu::ComputePipeline);
+
+        impl crate::gpu::pipelines::PipelineSet for $name {
+            fn build(device: &wgpu::Device) -> Self {
+                Self(crate::gpu::pipelines::single_main(device, SHADERS[0]))
+            }
+        }
+    };
+}
+pub(crate) use single_pipeline_stage;

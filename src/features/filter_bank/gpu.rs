@@ -6,23 +6,12 @@ use std::sync::Arc;
 
 use crate::features::harris::gpu::HarrisPipelines;
 use crate::gpu::layout::gpu_struct;
-use crate::gpu::pipelines::{single_main, PipelineSet};
+use crate::gpu::pipelines::single_pipeline_stage;
 use crate::gpu::util::{bind, groups_2d, read_storage, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
 
-/// The stage's WGSL source with its file name (the separable passes are Harris's).
-pub const SHADERS: [(&str, &str); 1] = [(
-    "filter_bank_steer.wgsl",
-    include_str!("../../../shaders/filter_bank_steer.wgsl"),
-)];
-
-struct SteerPipeline(wgpu::ComputePipeline);
-
-impl PipelineSet for SteerPipeline {
-    fn build(device: &wgpu::Device) -> Self {
-        Self(single_main(device, SHADERS[0]))
-    }
-}
+// The separable passes are Harris's.
+single_pipeline_stage!(SteerPipeline, "filter_bank_steer.wgsl");
 use super::basis_filters;
 use crate::error::Result;
 use crate::features::filter_bank::steering_table;

@@ -10,6 +10,7 @@
 //! σ_e: each octave then costs about a quarter of the one below it, and the response grids
 //! (and so every later stage) are those of the full-resolution computation.
 
+use crate::error::Result;
 use crate::features::config::{DescriptorKind, DetectorConfig};
 use crate::features::steerable::{orientations, steering_coefficients, Kernel1d, Separable};
 
@@ -140,6 +141,17 @@ pub struct HarrisPlan {
     pub pyramid: Vec<Kernel1d>,
 }
 
+/// One tile of a frame: its pixels in the image, and the core whose candidates it reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Tile {
+    /// First pixel (x, y) in the image; a multiple of every scale's step.
+    pub origin: (u32, u32),
+    /// Size in pixels (core plus halo, cut by the image).
+    pub size: (u32, u32),
+    /// The core (x0, y0, x1, y1) in the tile's pixels.
+    pub core: [u32; 4],
+}
+
 impl HarrisPlan {
     /// Builds the kernels and weights of a validated configuration.
     pub fn new(config: &DetectorConfig) -> Self {
@@ -268,6 +280,86 @@ impl HarrisPlan {
         self.scales.iter().map(|s| s.step).max().unwrap_or(1)
     }
 
+    /// Rows or columns of halo a tile needs around its core so that the responses and the
+    /// suppression of the core's samples see exactly the pixels they would in the whole
+    /// image: the derivative filters' and the window's reach at each scale, plus the
+    /// neighbouring samples the suppression reads (±1 of its scale, ±1.5 steps of the
+    /// adjacent ones). A multiple of the coarsest step, so tiles keep every grid aligned.
+    pub fn tile_halo(&self) -> u32 {
+        let max_step = self.max_step();
+        let reach = self
+            .scales
+            .iter()
+            .map(|sc| {
+                // The derivative filters reach their radius in level pixels, and each level
+                // pixel the blurs that built it.
+                let filter = sc
+                    .derivatives
+                    .iter()
+                    .map(|f| f.column.radius().max(f.row.radius()))
+                    .max()
+                    .unwrap_or(0) as u32;
+                let filter = (filter << sc.level) + self.level_reach(sc.level);
+                filter + sc.window.radius() as u32 * sc.step + sc.margin
+            })
+            .max()
+            .unwrap_or(0);
+        (reach + 2 * max_step).next_multiple_of(max_step)
+    }
+
+    /// The tiles of a `width`×`height` frame: the whole frame when `fits` accepts it and no
+    /// tile size is configured; otherwise square cores of `gpu_tile_size` (or the largest
+    /// whose core plus halos is at most `largest` pixels a side), each with its halo, cut by
+    /// the image. Cores are multiples of the coarsest step and partition the frame. An error
+    /// from `fits` (which names the device's limit) when not even a tile fits.
+    pub(crate) fn tiles(
+        &self,
+        width: u32,
+        height: u32,
+        largest: u32,
+        fits: impl Fn(u32, u32) -> Result<()>,
+    ) -> Result<Vec<Tile>> {
+        let whole = Tile {
+            origin: (0, 0),
+            size: (width, height),
+            core: [0, 0, width, height],
+        };
+        let configured = self.config.gpu_tile_size;
+        let halo = self.tile_halo();
+        let max_step = self.max_step();
+        let side = if configured > 0 {
+            configured
+        } else if fits(width, height).is_ok() {
+            return Ok(vec![whole]);
+        } else {
+            let core = largest.saturating_sub(2 * halo) / max_step * max_step;
+            if core == 0 {
+                return fits(width, height).map(|_| vec![whole]);
+            }
+            core
+        };
+        let side = side.next_multiple_of(max_step);
+        if side >= width && side >= height {
+            return Ok(vec![whole]);
+        }
+        let mut tiles = Vec::new();
+        for y0 in (0..height).step_by(side as usize) {
+            for x0 in (0..width).step_by(side as usize) {
+                let (x1, y1) = ((x0 + side).min(width), (y0 + side).min(height));
+                let origin = (x0.saturating_sub(halo), y0.saturating_sub(halo));
+                let end = ((x1 + halo).min(width), (y1 + halo).min(height));
+                let tile = Tile {
+                    origin,
+                    size: (end.0 - origin.0, end.1 - origin.1),
+                    core: [x0 - origin.0, y0 - origin.1, x1 - origin.0, y1 - origin.1],
+                };
+                fits(tile.size.0, tile.size.1)?;
+                tiles.push(tile);
+            }
+        }
+        Ok(tiles)
+    }
+
     /// Number of derivative images per scale (n + 2).
     pub fn derivative_count(&self) -> usize {
         self.config.basis.order() + 2
@@ -279,4 +371,76 @@ impl HarrisPlan {
 pub fn harris_response(mxx: f32, mxy: f32, myy: f32, k: f32) -> f32 {
     let tr = mxx + myy;
     mxx * myy - mxy * mxy - k * tr * tr
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Error;
+
+    fn plan(tile: u32) -> HarrisPlan {
+        HarrisPlan::new(&DetectorConfig {
+            gpu_tile_size: tile,
+            ..DetectorConfig::default()
+        })
+    }
+
+    /// Every pixel of the frame in exactly one core; every tile inside the frame, its core
+    /// inside it, its origin on every grid, and its halo complete where the frame allows.
+    fn assert_partition(plan: &HarrisPlan, tiles: &[Tile], width: u32, height: u32) {
+        let mut covered = vec![0u8; (width * height) as usize];
+        let (halo, step) = (plan.tile_halo(), plan.max_step());
+        for t in tiles {
+            assert_eq!((t.origin.0 % step, t.origin.1 % step), (0, 0), "{t:?}");
+            assert!(t.origin.0 + t.size.0 <= width && t.origin.1 + t.size.1 <= height);
+            let [x0, y0, x1, y1] = t.core;
+            assert!(
+                x0 < x1 && x1 <= t.size.0 && y0 < y1 && y1 <= t.size.1,
+                "{t:?}"
+            );
+            assert!(x0 >= halo.min(t.origin.0 + x0) && y0 >= halo.min(t.origin.1 + y0));
+            assert!(t.size.0 - x1 >= halo.min(width - t.origin.0 - x1), "{t:?}");
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    covered[((t.origin.1 + y) * width + t.origin.0 + x) as usize] += 1;
+                }
+            }
+        }
+        assert!(
+            covered.iter().all(|&c| c == 1),
+            "cores must partition the frame"
+        );
+    }
+
+    #[test]
+    fn a_frame_that_fits_is_one_tile_and_a_configured_size_tiles_it() {
+        let whole = plan(0).tiles(640, 480, 4096, |_, _| Ok(())).unwrap();
+        assert_eq!(whole.len(), 1);
+        assert_eq!(whole[0].core, [0, 0, 640, 480]);
+        let p = plan(128);
+        let tiles = p.tiles(640, 480, 4096, |_, _| Ok(())).unwrap();
+        assert!(tiles.len() > 1);
+        assert_partition(&p, &tiles, 640, 480);
+    }
+
+    #[test]
+    fn a_frame_past_the_limits_gets_the_largest_tiles_that_fit() {
+        let p = plan(0);
+        let largest = 2 * p.tile_halo() + 3 * p.max_step();
+        let fits = |w: u32, h: u32| {
+            if w.max(h) <= largest {
+                Ok(())
+            } else {
+                Err(Error::GpuLimit(format!("{w}x{h}")))
+            }
+        };
+        let tiles = p.tiles(2000, 1500, largest, fits).unwrap();
+        assert!(tiles
+            .iter()
+            .all(|t| t.size.0 <= largest && t.size.1 <= largest));
+        assert_partition(&p, &tiles, 2000, 1500);
+        // Not even a core of one step fits: the device's own error.
+        let e = p.tiles(2000, 1500, p.tile_halo(), fits).unwrap_err();
+        assert!(e.to_string().contains("2000x1500"), "{e}");
+    }
 }

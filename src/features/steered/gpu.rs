@@ -12,23 +12,11 @@ use std::sync::{Arc, Mutex};
 use super::{patch_geometry, Steered, STEERED_LEN};
 use crate::error::{Error, Result};
 use crate::gpu::layout::gpu_struct;
-use crate::gpu::pipelines::{single_main, PipelineSet};
+use crate::gpu::pipelines::single_pipeline_stage;
 use crate::gpu::util::{bind, read_staging, staging, storage, uniform};
 use crate::gpu::GpuContext;
 
-/// The stage's WGSL source with its file name.
-pub const SHADERS: [(&str, &str); 1] = [(
-    "steered_descriptor.wgsl",
-    include_str!("../../../shaders/steered_descriptor.wgsl"),
-)];
-
-struct SteeredPipeline(wgpu::ComputePipeline);
-
-impl PipelineSet for SteeredPipeline {
-    fn build(device: &wgpu::Device) -> Self {
-        Self(single_main(device, SHADERS[0]))
-    }
-}
+single_pipeline_stage!(SteeredPipeline, "steered_descriptor.wgsl");
 
 gpu_struct! {
     struct Params as "Params" {

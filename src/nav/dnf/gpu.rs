@@ -5,20 +5,11 @@
 use std::sync::Arc;
 
 use crate::gpu::layout::gpu_struct;
-use crate::gpu::pipelines::{single_main, PipelineSet};
+use crate::gpu::pipelines::single_pipeline_stage;
 use crate::gpu::util::{bind, read_storage, storage, storage_init, uniform};
 use crate::gpu::GpuContext;
 
-/// The stage's WGSL source with its file name.
-pub const SHADERS: [(&str, &str); 1] = [("dnf.wgsl", include_str!("../../../shaders/dnf.wgsl"))];
-
-struct DnfPipeline(wgpu::ComputePipeline);
-
-impl PipelineSet for DnfPipeline {
-    fn build(device: &wgpu::Device) -> Self {
-        Self(single_main(device, SHADERS[0]))
-    }
-}
+single_pipeline_stage!(DnfPipeline, "dnf.wgsl");
 use crate::error::{Error, Result};
 use crate::nav::dnf::{check_stimulus, Activation, FieldConfig, Interaction};
 
