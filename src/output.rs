@@ -71,12 +71,34 @@ impl ImageKeypoints {
 
 /// Writes `bytes` to `path` through a temporary file in the same directory and a rename, so
 /// a reader never sees a half-written file and an interrupted run leaves no torn output.
+///
+/// What is at `path` is respected: a symbolic link is written through (its target is
+/// replaced, the link stays); a device, a FIFO or anything else that is not a regular file is
+/// written to directly, never replaced; a directory is refused. The new file gets the mode a
+/// plain create would give it (0666 less the umask), or the mode of the file it replaces.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let io = |source| Error::Io {
         path: path.to_path_buf(),
         source,
     };
-    let dir = match path.parent().filter(|d| !d.as_os_str().is_empty()) {
+    let target = resolve_link(path).map_err(io)?;
+    if let Ok(meta) = std::fs::metadata(&target) {
+        if meta.is_dir() {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "is a directory",
+            )));
+        }
+        if !meta.is_file() {
+            // A device or a FIFO: the bytes go to it, and it stays what it is.
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&target)
+                .map_err(io)?;
+            return f.write_all(bytes).and_then(|_| f.flush()).map_err(io);
+        }
+    }
+    let dir = match target.parent().filter(|d| !d.as_os_str().is_empty()) {
         Some(dir) => {
             std::fs::create_dir_all(dir).map_err(io)?;
             dir
@@ -85,12 +107,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     };
     // A uniquely named file beside the target, renamed over it once complete: a reader sees
     // the old file or the new one, never half of one, and two writers never share a file.
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
+    let mut builder = tempfile::Builder::new();
+    let replaced = std::fs::metadata(&target).ok().map(|m| m.permissions());
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // Created with 0666 the umask applies, as for any new file.
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(dir).map_err(io)?;
+    if let Some(mode) = replaced {
+        tmp.as_file().set_permissions(mode).map_err(io)?;
+    }
     tmp.write_all(bytes)
         .and_then(|_| tmp.as_file().sync_all())
         .map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
+    tmp.persist(&target).map_err(|e| io(e.error))?;
     Ok(())
+}
+
+/// Where writing to `path` lands: the file its chain of symbolic links ends at (a dangling
+/// link's target, to be created), or `path` itself.
+fn resolve_link(path: &Path) -> std::io::Result<std::path::PathBuf> {
+    let mut current = path.to_path_buf();
+    // A bounded walk: a loop of links is an error, as the kernel's own resolution says.
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&current) {
+            Ok(meta) if meta.file_type().is_symlink() => {
+                let next = std::fs::read_link(&current)?;
+                current = match current.parent() {
+                    Some(dir) if next.is_relative() => dir.join(next),
+                    _ => next,
+                };
+            }
+            _ => return Ok(current),
+        }
+    }
+    Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
 /// The keypoint CSV's descriptor columns: the entropy at 16 … 256 colours, or d0, d1, … .
@@ -118,4 +171,51 @@ where
     }
     let bytes = w.into_inner().expect("flushing CSV to memory cannot fail");
     String::from_utf8(bytes).expect("CSV of UTF-8 fields is UTF-8")
+}
+
+#[cfg(all(test, unix))]
+mod write_tests {
+    use super::*;
+    use std::os::unix::fs::{FileTypeExt, PermissionsExt};
+
+    #[test]
+    fn links_are_written_through_devices_kept_and_modes_those_of_a_plain_create() {
+        let dir = tempfile::tempdir().unwrap();
+        // A new file: 0666 less the umask, like File::create (compared with one).
+        let plain = dir.path().join("plain");
+        std::fs::File::create(&plain).unwrap();
+        let new = dir.path().join("new.json");
+        write_atomic(&new, b"1").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&new), mode(&plain));
+        // A replaced file keeps its mode.
+        std::fs::set_permissions(&new, std::fs::Permissions::from_mode(0o640)).unwrap();
+        write_atomic(&new, b"2").unwrap();
+        assert_eq!(
+            (mode(&new), std::fs::read(&new).unwrap()),
+            (0o640, b"2".to_vec())
+        );
+        // A link is written through: the link stays, its target changes.
+        let link = dir.path().join("link.json");
+        std::os::unix::fs::symlink("new.json", &link).unwrap();
+        write_atomic(&link, b"3").unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read(&new).unwrap(), b"3");
+        // A device is written to, never replaced; a full one is an error naming the path.
+        write_atomic(Path::new("/dev/null"), b"4").unwrap();
+        assert!(std::fs::metadata("/dev/null")
+            .unwrap()
+            .file_type()
+            .is_char_device());
+        let e = write_atomic(Path::new("/dev/full"), b"5")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("/dev/full"), "{e}");
+        assert!(!std::fs::metadata("/dev/full").unwrap().is_file());
+        // A directory is refused.
+        assert!(write_atomic(dir.path(), b"6").is_err());
+    }
 }

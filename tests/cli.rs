@@ -940,3 +940,61 @@ fn keypoints_without_descriptors_are_refused_for_matching() {
     assert_eq!(v["descriptor"], "none", "{v}");
     assert_eq!(v["descriptor_length"], 0, "{v}");
 }
+
+#[cfg(unix)]
+#[test]
+fn a_full_or_closed_stderr_costs_the_messages_not_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap()
+    };
+    // detect: its result on stdout; `auto` warns about the software adapter where there is one.
+    let out = steernav()
+        .args(["detect", "--backend", "auto", "--max-keypoints", "20"])
+        .arg(sample())
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", out.status);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["keypoints"].as_array().unwrap().len(), 20);
+    // batch with a damaged file: the warnings are lost, the outputs and the exit code are not.
+    let input = dir.path().join("in");
+    std::fs::create_dir(&input).unwrap();
+    std::fs::copy(sample(), input.join("a.png")).unwrap();
+    std::fs::write(input.join("bad.png"), b"not a png").unwrap();
+    let status = steernav()
+        .args([
+            "batch",
+            "--backend",
+            "cpu",
+            "--max-keypoints",
+            "20",
+            "--out",
+        ])
+        .arg(dir.path().join("out"))
+        .arg(&input)
+        .stderr(full())
+        .status()
+        .unwrap();
+    assert_eq!(
+        status.code(),
+        Some(1),
+        "one damaged file is a failure, not a panic"
+    );
+    assert!(dir.path().join("out/a.png.json").exists());
+    // A closed stderr: the reader went away before the command started writing.
+    let mut child = steernav()
+        .args(["detect", "--backend", "cpu", "--max-keypoints", "20"])
+        .arg(sample())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stderr.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", out.status);
+}

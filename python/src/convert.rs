@@ -170,6 +170,11 @@ pub(crate) fn homography(h: &PyReadonlyArray2<'_, f64>) -> PyResult<Homography> 
     if out.iter().any(|v| !v.is_finite()) {
         return Err(PyValueError::new_err("H: every entry must be finite"));
     }
+    if steernav_core::eval::homography::invert(&out).is_none() {
+        return Err(PyValueError::new_err(
+            "H: singular (determinant 0): it maps no region of one view onto the other",
+        ));
+    }
     Ok(out)
 }
 

@@ -17,6 +17,8 @@ def test_repeatability_and_recall_of_a_rotation(sample):
     assert rep > 0.8
     rec = steernav.recall(a.xy, a.descriptor, b.xy, b.descriptor, H, (h, w), rotated.shape[:2])
     assert 0.0 <= rec <= 1.0
+    with pytest.raises(ValueError, match="singular"):
+        steernav.repeatability(a.xy, b.xy, np.zeros((3, 3)), (h, w), (h, w))
     with pytest.raises(ValueError, match="3, 3"):
         steernav.repeatability(a.xy, b.xy, np.eye(2), (h, w), (h, w))
 

@@ -18,6 +18,16 @@ macro_rules! print {
     }};
 }
 
+/// `eprintln!` for the commands: a closed or full stderr loses the message, never the run —
+/// the results on stdout and on disk matter more than a note about them. Shadows the std
+/// macro in this crate, as [`println!`] does.
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 mod args;
 mod batch;
 mod bench;

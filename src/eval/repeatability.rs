@@ -37,7 +37,9 @@ pub struct Correspondences {
     pub pairs: Vec<(usize, usize)>,
 }
 
-/// Finds the common region's points and the one-to-one correspondences within `eps`.
+/// Finds the common region's points and the one-to-one correspondences within `eps`. A
+/// singular `h` maps no region of view 2 back into view 1: nothing corresponds (and a warning
+/// says why), rather than a panic.
 pub fn correspondences(
     p1: &[(f64, f64)],
     size1: (u32, u32),
@@ -47,7 +49,14 @@ pub fn correspondences(
     eps: f64,
     margin: f64,
 ) -> Correspondences {
-    let hinv = invert(h).expect("ground-truth homography is invertible");
+    let Some(hinv) = invert(h) else {
+        log::warn!("the homography {h:?} is singular: no common region, nothing corresponds");
+        return Correspondences {
+            inside1: Vec::new(),
+            inside2: Vec::new(),
+            pairs: Vec::new(),
+        };
+    };
     let projected: Vec<Option<(f64, f64)>> = p1.iter().map(|&(x, y)| project(h, x, y)).collect();
     // A point counts when it and its ground-truth image both lie at least `margin` inside
     // their views. Checking only the image (as a one-sided test would) keeps view-1 points
@@ -121,6 +130,13 @@ pub fn repeatability(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_singular_homography_gives_no_correspondences_not_a_panic() {
+        let points = [(10.0, 10.0), (20.0, 30.0)];
+        let r = repeatability(&points, (64, 64), &points, (64, 64), &[0.0; 9], 2.0, 0.0);
+        assert_eq!((r.ratio, r.matches, r.count1, r.count2), (0.0, 0, 0, 0));
+    }
 
     const ID: [f64; 9] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
 
