@@ -222,3 +222,37 @@ impl Error {
 
 /// Shorthand for results of this crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Opens an input file for reading, refusing what is not a regular file (after links): a FIFO
+/// would block until a writer comes, a device such as `/dev/zero` would never end.
+pub(crate) fn open_input(path: &std::path::Path) -> Result<std::fs::File> {
+    let io = |source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            if meta.is_dir() {
+                "is a directory, not a file"
+            } else {
+                "is not a regular file (a FIFO or a device would block or never end)"
+            },
+        )));
+    }
+    std::fs::File::open(path).map_err(io)
+}
+
+/// [`open_input`], read to the end as UTF-8 text.
+pub(crate) fn read_input(path: &std::path::Path) -> Result<String> {
+    use std::io::Read;
+    let mut text = String::new();
+    open_input(path)?
+        .read_to_string(&mut text)
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    Ok(text)
+}

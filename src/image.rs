@@ -169,7 +169,7 @@ impl Frame {
         };
         let decode_err = |reason: String| decode_error(path, reason);
         let image_err = |e: image::ImageError| image_error(path, e);
-        let mut file = std::fs::File::open(path).map_err(io)?;
+        let mut file = crate::error::open_input(path)?;
         let mut head = Vec::with_capacity(64);
         (&mut file).take(64).read_to_end(&mut head).map_err(io)?;
         if head.is_empty() {
@@ -195,7 +195,7 @@ impl Frame {
             });
         }
         reader = image::ImageReader::with_format(
-            BufReader::new(std::fs::File::open(path).map_err(io)?),
+            BufReader::new(crate::error::open_input(path)?),
             format,
         );
         let limits = decode_limits(width, height);

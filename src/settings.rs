@@ -87,10 +87,7 @@ impl Settings {
 
     /// Reads and parses a settings file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::error::read_input(path)?;
         Self::from_toml_str(&text).map_err(|source| Error::ConfigFile {
             path: path.to_path_buf(),
             source: Box::new(source),

@@ -287,3 +287,54 @@ fn auto_never_takes_a_software_adapter() {
         Err(_) => assert_eq!(detector.backend(), Backend::Cpu),
     }
 }
+
+/// Every setting that sizes work or memory has a bound: the values a careless or hostile file
+/// gives are refused by name before anything is allocated or run.
+#[test]
+fn settings_that_would_blow_up_work_or_memory_are_refused() {
+    use steernav::nav::sim::episode::EpisodeConfig;
+    use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticSequence};
+    let many = format!("[{}]", vec!["8"; 200_000].join(", "));
+    let cases = [
+        (
+            "[slam.map]\ngrid = [100000, 100000]\n".to_string(),
+            "slam.map.grid",
+        ),
+        (
+            "[slam.start]\ncorner_grid = [0, 4]\n".to_string(),
+            "slam.start.corner_grid",
+        ),
+        ("[slam.klt]\nlevels = 1000\n".to_string(), "slam.klt.levels"),
+        (
+            format!("[gist]\norientations_per_scale = {many}\n"),
+            "orientations_per_scale",
+        ),
+        (
+            "[nav.controller]\nfield_steps = 1000000000\n".to_string(),
+            "field_steps",
+        ),
+        (
+            "[synthetic]\ntexels_per_metre = 1e30\n".to_string(),
+            "texels_per_metre",
+        ),
+        ("[synthetic]\nk1 = nan\n".to_string(), "k1"),
+    ];
+    for (text, key) in cases {
+        let s = steernav::Settings::from_toml_str(&text).unwrap();
+        let refused = [
+            s.slam.validate().err(),
+            s.gist.validate().err(),
+            EpisodeConfig::validate(&s.nav).err(),
+            SyntheticSequence::new(SyntheticConfig {
+                frames: 1,
+                ..s.synthetic.clone()
+            })
+            .err(),
+        ];
+        let messages: Vec<String> = refused.iter().flatten().map(|e| e.to_string()).collect();
+        assert!(
+            messages.iter().any(|m| m.contains(key)),
+            "{text:?}: {messages:?}"
+        );
+    }
+}

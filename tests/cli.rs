@@ -998,3 +998,60 @@ fn a_full_or_closed_stderr_costs_the_messages_not_the_run() {
     let out = child.wait_with_output().unwrap();
     assert!(out.status.success(), "{}", out.status);
 }
+
+#[cfg(unix)]
+#[test]
+fn fifos_and_devices_as_inputs_are_refused_by_name_not_read_forever() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("f.png");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let gt = dir.path().join("gt.txt");
+    std::fs::write(&gt, "0 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n").unwrap();
+    let cases: Vec<Vec<std::ffi::OsString>> = vec![
+        vec![
+            "detect".into(),
+            "--backend".into(),
+            "cpu".into(),
+            fifo.clone().into(),
+        ],
+        vec!["nav-replay".into(), fifo.clone().into()],
+        vec!["nav-replay".into(), "/dev/zero".into()],
+        vec!["slam-eval".into(), "/dev/zero".into(), gt.clone().into()],
+        vec!["slam-eval".into(), fifo.clone().into(), gt.clone().into()],
+    ];
+    for args in cases {
+        let mut child = steernav()
+            .args(&args)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status;
+            }
+            if start.elapsed() > std::time::Duration::from_secs(20) {
+                child.kill().unwrap();
+                panic!("{args:?} still reading after 20 s");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        let mut err = String::new();
+        std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+        let named = args.last().unwrap().to_string_lossy().into_owned();
+        let input = if named == gt.to_string_lossy() {
+            args[1].to_string_lossy().into_owned()
+        } else {
+            named
+        };
+        assert!(
+            !status.success() && err.contains(&input) && err.contains("not a regular file"),
+            "{args:?}: {status}: {err}"
+        );
+    }
+}

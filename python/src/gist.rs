@@ -21,6 +21,7 @@ pub(crate) fn gist<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let backend = parse_backend(backend)?;
     let config: GistConfig = config_from("gist", settings)?;
+    let config_len = config.len();
     let single = images.hasattr("shape")?;
     let frames = if single {
         vec![frame_of(images)?]
@@ -41,7 +42,8 @@ pub(crate) fn gist<'py>(
             .into_pyarray(py)
             .into_any());
     }
-    let width = rows.first().map_or(0, |r| r.len());
+    // An empty list still has the descriptor's width: (0, 512), not (0, 0).
+    let width = rows.first().map_or(config_len, |r| r.len());
     let flat: Vec<f32> = rows.concat();
     let array = Array2::from_shape_vec((flat.len() / width.max(1), width), flat)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;

@@ -73,9 +73,6 @@ pub fn parse(path: &Path, text: &str) -> Result<Homography> {
 
 /// Reads and parses a homography file.
 pub fn load(path: &Path) -> Result<Homography> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = crate::error::read_input(path)?;
     parse(path, &text)
 }

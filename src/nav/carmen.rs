@@ -30,10 +30,10 @@ pub fn read_log(path: &Path) -> Result<Vec<Scan>> {
         path: path.to_path_buf(),
         source,
     };
-    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut file = crate::error::open_input(path)?;
     let mut magic = [0u8; 2];
     let gz = file.read(&mut magic).map_err(io)? == 2 && magic == [0x1f, 0x8b];
-    let file = std::fs::File::open(path).map_err(io)?;
+    let file = crate::error::open_input(path)?;
     let reader: Box<dyn BufRead> = if gz {
         Box::new(BufReader::new(flate2::read::MultiGzDecoder::new(file)))
     } else {

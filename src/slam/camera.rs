@@ -163,10 +163,7 @@ impl PinholeCamera {
 
     /// Reads a calibration: a TOML file with a `[camera]` table, or a EuRoC `sensor.yaml`.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::error::read_input(path)?;
         let camera = if path.extension().is_some_and(|e| e == "yaml" || e == "yml") {
             parse_euroc_yaml(&text).map_err(|reason| Error::config_file(path, reason))?
         } else {

@@ -65,6 +65,7 @@ impl GistConfig {
             return bad("size", self.size.to_string(), "must be in 16..=2048");
         }
         if self.orientations_per_scale.is_empty()
+            || self.orientations_per_scale.len() > 16
             || self
                 .orientations_per_scale
                 .iter()
@@ -73,7 +74,7 @@ impl GistConfig {
             return bad(
                 "orientations_per_scale",
                 format!("{:?}", self.orientations_per_scale),
-                "1..=64 orientations at each of at least one scale",
+                "1..=64 orientations at each of 1..=16 scales",
             );
         }
         if self.blocks == 0 || self.blocks > self.size {

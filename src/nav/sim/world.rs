@@ -90,10 +90,7 @@ pub struct Hit {
 impl World {
     /// Reads and validates a world TOML file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::error::read_input(path)?;
         let world: World = toml::from_str(&text).map_err(|e| Error::ConfigFile {
             path: path.to_path_buf(),
             source: Box::new(ConfigError::from_toml(&text, e)),

@@ -13,10 +13,7 @@ use crate::slam::camera::PinholeCamera;
 use crate::slam::rotation;
 
 fn read(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    crate::error::read_input(path)
 }
 
 fn bad(path: &Path, line: usize, reason: impl std::fmt::Display) -> Error {
@@ -112,7 +109,7 @@ pub fn read_times(path: &Path) -> Result<Vec<f64>> {
 
 /// Whether a trajectory file holds KITTI pose rows (12 values on its first data line).
 pub fn looks_like_poses(path: &Path) -> bool {
-    std::fs::read_to_string(path).is_ok_and(|text| {
+    crate::error::read_input(path).is_ok_and(|text| {
         text.lines()
             .map(str::trim)
             .find(|l| !l.is_empty() && !l.starts_with('#'))

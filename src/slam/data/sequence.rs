@@ -241,10 +241,7 @@ fn parse_list(
     base: &Path,
     parse: impl Fn(&[&str]) -> Option<(f64, String)>,
 ) -> Result<Vec<SequenceFrame>> {
-    let text = std::fs::read_to_string(list).map_err(|source| Error::Io {
-        path: list.to_path_buf(),
-        source,
-    })?;
+    let text = crate::error::read_input(list)?;
     let mut frames: Vec<SequenceFrame> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -287,10 +284,7 @@ pub fn read_ground_truth(path: &Path, frame_times: &[f64]) -> Result<Vec<super::
         return super::kitti::read_poses(path, frame_times);
     }
     if path.extension().is_some_and(|e| e == "csv") {
-        let frames_like = std::fs::read_to_string(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let frames_like = crate::error::read_input(path)?;
         let mut poses = Vec::new();
         for (i, line) in frames_like.lines().enumerate() {
             let line = line.trim();

@@ -138,7 +138,8 @@ impl SyntheticSequence {
                 .room
                 .iter()
                 .all(|r| r.is_finite() && *r > 0.1 && *r < 1e4)
-            || !(config.texels_per_metre.is_finite() && config.texels_per_metre > 0.0)
+            || !(config.texels_per_metre > 0.0 && config.texels_per_metre <= 1e4)
+            || !(config.k1.is_finite() && config.k1.abs() < 1.0)
             || !(config.amplitude.is_finite() && config.amplitude.abs() < 1e3)
             || !(config.speed.is_finite() && config.speed.abs() < 1e3)
             || !(config.camera_height > 0.0 && config.camera_height < 2.0 * config.room[1])
@@ -149,7 +150,7 @@ impl SyntheticSequence {
                     "frames={} fps={} fov={}",
                     config.frames, config.fps, config.fov_deg
                 ),
-                "needs frames >= 1, fps > 0, period > 0, fov in (1, 170) degrees, room half-extents in (0.1, 1e4) m, texels_per_metre > 0, |amplitude| and |speed| < 1e3, camera_height inside the room",
+                "needs frames >= 1, fps > 0, period > 0, fov in (1, 170) degrees, room half-extents in (0.1, 1e4) m, texels_per_metre in (0, 1e4], |k1| < 1, |amplitude| and |speed| < 1e3, camera_height inside the room",
             ));
         }
         crate::image::check_size("synthetic", config.width, config.height)?;

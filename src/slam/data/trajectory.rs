@@ -48,10 +48,7 @@ pub fn write_tum(path: &Path, poses: &[Pose]) -> Result<()> {
 
 /// Reads a TUM trajectory (comments with `#`, blank lines ignored, timestamps increasing).
 pub fn read_tum(path: &Path) -> Result<Vec<Pose>> {
-    let file = std::fs::File::open(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let file = crate::error::open_input(path)?;
     let mut poses: Vec<Pose> = Vec::new();
     for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
         let line = line.map_err(|source| Error::Io {
