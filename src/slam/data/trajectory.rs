@@ -27,7 +27,8 @@ pub struct Pose {
 pub fn tum_line(pose: &Pose) -> String {
     let (p, q) = (pose.position, pose.orientation);
     format!(
-        "{:.6} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
+        // Nanosecond timestamps: frames a microsecond apart stay apart (ROS stamps are ns).
+        "{:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}",
         pose.timestamp, p.x, p.y, p.z, q[1], q[2], q[3], q[0]
     )
 }
@@ -286,6 +287,30 @@ pub fn evaluate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Result<Trajec
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn trajectories_a_microsecond_apart_read_back_apart() {
+        let dir = tempfile::tempdir().unwrap();
+        let poses: Vec<Pose> = (0..3)
+            .map(|k| Pose {
+                timestamp: 1_700_000_000.0 + 1e-6 * k as f64,
+                position: Vector3::new(k as f64, 0.0, 0.0),
+                orientation: nalgebra::Vector4::new(1.0, 0.0, 0.0, 0.0),
+            })
+            .collect();
+        let path = dir.path().join("t.txt");
+        write_tum(&path, &poses).unwrap();
+        let back = read_tum(&path).unwrap();
+        assert_eq!(back.len(), 3);
+        for (a, b) in poses.iter().zip(&back) {
+            assert!(
+                (a.timestamp - b.timestamp).abs() < 1e-8,
+                "{} {}",
+                a.timestamp,
+                b.timestamp
+            );
+        }
+    }
 
     fn poses(scale: f64, rot: &Matrix3<f64>, shift: Vector3<f64>) -> Vec<Pose> {
         (0..50)
