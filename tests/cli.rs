@@ -1055,3 +1055,27 @@ fn fifos_and_devices_as_inputs_are_refused_by_name_not_read_forever() {
         );
     }
 }
+
+#[test]
+fn batch_into_its_own_input_and_absurd_frame_rates_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(sample(), dir.path().join("a.png")).unwrap();
+    let out = steernav()
+        .args(["batch", "--backend", "cpu", "--out"])
+        .arg(dir.path())
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("both the input and the output"),
+        "{err}"
+    );
+    let out = steernav()
+        .args(["slam", "--backend", "cpu", "--fps", "1e-320"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("fps"), "{err}");
+}

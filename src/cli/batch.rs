@@ -40,6 +40,16 @@ pub fn list_images(dir: &Path, output: &Path) -> Result<Vec<PathBuf>> {
         });
     }
     let output = output.canonicalize().ok();
+    if output.is_some() && output == dir.canonicalize().ok() {
+        // The walk leaves the output folder out, so the input would be left out whole.
+        return Err(Error::Io {
+            path: dir.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "is both the input and the output folder: give --out a folder of its own",
+            ),
+        });
+    }
     let mut out = Vec::new();
     let walk = walkdir::WalkDir::new(dir)
         .follow_links(true)

@@ -40,8 +40,11 @@ pub fn run(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
         match &cmd.times {
             Some(path) => Ok(kitti::read_times(path)?),
             None => {
-                if !(cmd.fps.is_finite() && cmd.fps > 0.0) {
-                    bail!("--fps: {} must be finite and > 0", cmd.fps);
+                if !(cmd.fps.is_finite() && (1e-5..=1e6).contains(&cmd.fps)) {
+                    bail!(
+                        "--fps {}: must be a rate in [1e-5, 1e6] frames per second",
+                        cmd.fps
+                    );
                 }
                 Ok((0..rows).map(|i| i as f64 / cmd.fps).collect())
             }

@@ -209,8 +209,14 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
 }
 
 fn checked_fps(fps: f64) -> Result<f64> {
-    if !(fps.is_finite() && fps > 0.0) {
-        return Err(Error::config("fps", fps, "must be finite and > 0"));
+    // Below a frame a day or above a million a second, 1/fps and i/fps stop meaning frames
+    // (1e-320 makes every step infinite): a typo, not a rate.
+    if !(fps.is_finite() && (1e-5..=1e6).contains(&fps)) {
+        return Err(Error::config(
+            "fps",
+            fps,
+            "must be a rate in [1e-5, 1e6] frames per second",
+        ));
     }
     Ok(fps)
 }
