@@ -81,15 +81,13 @@ pub enum TrajectoryFormat {
 
 pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let seq = sequence::open(&cmd.sequence, cmd.fps)?;
-    let camera = seq.camera(cmd.calib.as_deref()).map_err(|e| match e {
-        steernav::Error::Input { reason, .. } if reason.starts_with("no calibration") => {
-            anyhow::anyhow!(
-                "{}: {reason}; pass --calib CALIB.toml",
-                cmd.sequence.display()
-            )
-        }
-        other => other.into(),
-    })?;
+    if cmd.calib.is_none() && seq.calibration.is_none() {
+        bail!(
+            "{}: no calibration beside the frames; pass --calib CALIB.toml",
+            cmd.sequence.display()
+        );
+    }
+    let camera = seq.camera(cmd.calib.as_deref())?;
     let frame_times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
     let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
     let truth = match &truth_path {
