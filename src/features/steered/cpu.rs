@@ -67,13 +67,21 @@ impl Patch {
         }
         let mut magnitude = vec![0.0; side * side];
         let mut direction = vec![0.0; side * side];
+        // Row by row over slices, without closures or branches, so that the loops vectorise.
         for j in 0..side {
+            let (up, mid, down) = (
+                &smooth[j * inner + 1..j * inner + 1 + side],
+                &smooth[(j + 1) * inner..(j + 2) * inner],
+                &smooth[(j + 2) * inner + 1..(j + 2) * inner + 1 + side],
+            );
+            let (left, right) = (&mid[..side], &mid[2..side + 2]);
+            let out_m = &mut magnitude[j * side..(j + 1) * side];
+            let out_d = &mut direction[j * side..(j + 1) * side];
             for i in 0..side {
-                let s = |di: usize, dj: usize| smooth[(j + dj) * inner + i + di];
-                let gx = 0.5 * (s(2, 1) - s(0, 1));
-                let gy = 0.5 * (s(1, 2) - s(1, 0));
-                magnitude[j * side + i] = (gx * gx + gy * gy).sqrt();
-                direction[j * side + i] = fast_atan2(gy, gx);
+                let gx = 0.5 * (right[i] - left[i]);
+                let gy = 0.5 * (down[i] - up[i]);
+                out_m[i] = (gx * gx + gy * gy).sqrt();
+                out_d[i] = fast_atan2(gy, gx);
             }
         }
         Self {
@@ -129,7 +137,10 @@ pub fn describe_steered_blurred(
     let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
     let orientation = dominant_orientation(&patch, (&dxs, &dys), ORIENTATION_SIGMAS * sigma);
     let (sin, cos) = orientation.sin_cos();
-    let mut hist = vec![0.0f32; STEERED_LEN];
+    // Votes go to a histogram with a ring of spare cells around the 4×4, so that the
+    // trilinear vote needs no bounds checks; the spare cells are dropped afterwards. Each
+    // kept bin receives the same additions in the same order as a checked vote would.
+    let mut padded = [0.0f32; PADDED_LEN];
     let weight_sigma = 0.5 * window;
     let to_bin = DIRECTIONS as f32 / TAU;
     let (gx, gy) = (
@@ -152,7 +163,15 @@ pub fn describe_steered_blurred(
             let w = magnitude * (gx[i] * gy[j]);
             // Direction of steepest steered response relative to the frame.
             let phi = wrap_angle(patch.direction[k] - orientation) * to_bin;
-            vote(&mut hist, (u, v, phi), w);
+            vote(&mut padded, (u, v, phi), w);
+        }
+    }
+    let mut hist = vec![0.0f32; STEERED_LEN];
+    for cv in 0..CELLS {
+        for cu in 0..CELLS {
+            let from = ((cv + 1) * PADDED_CELLS + cu + 1) * DIRECTIONS;
+            let to = (cv * CELLS + cu) * DIRECTIONS;
+            hist[to..to + DIRECTIONS].copy_from_slice(&padded[from..from + DIRECTIONS]);
         }
     }
     normalise(&mut hist);
@@ -166,24 +185,24 @@ pub fn describe_steered_blurred(
     }
 }
 
+/// Cells per side of the histogram the votes go to: the 4×4 and a spare ring around it.
+const PADDED_CELLS: usize = CELLS + 2;
+/// Length of that histogram.
+const PADDED_LEN: usize = PADDED_CELLS * PADDED_CELLS * DIRECTIONS;
+
 /// Adds a pixel's weight `w` to the 2×2×2 bins around (u, v, φ) (cells, cells, direction
-/// bins) with trilinear weights.
+/// bins) with trilinear weights, in the padded histogram: u and v lie in (−1, CELLS), so the
+/// cells reached are 0 … CELLS + 1 after the shift by one.
 #[inline]
-fn vote(hist: &mut [f32], (u, v, phi): (f32, f32, f32), w: f32) {
+fn vote(hist: &mut [f32; PADDED_LEN], (u, v, phi): (f32, f32, f32), w: f32) {
     let (u0, v0, p0) = (floor(u), floor(v), phi as i32 as f32);
     let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
-    for (cu, wu) in [(u0, 1.0 - fu), (u0 + 1.0, fu)] {
-        if cu < 0.0 || cu >= CELLS as f32 {
-            continue;
-        }
-        for (cv, wv) in [(v0, 1.0 - fv), (v0 + 1.0, fv)] {
-            if cv < 0.0 || cv >= CELLS as f32 {
-                continue;
-            }
-            for (cp, wp) in [(p0, 1.0 - fp), (p0 + 1.0, fp)] {
-                let d = (cp as usize) % DIRECTIONS;
-                let slot = ((cv as usize) * CELLS + cu as usize) * DIRECTIONS + d;
-                hist[slot] += w * wu * wv * wp;
+    let (cu, cv, d) = ((u0 + 1.0) as usize, (v0 + 1.0) as usize, p0 as usize);
+    for (du, wu) in [(0, 1.0 - fu), (1, fu)] {
+        for (dv, wv) in [(0, 1.0 - fv), (1, fv)] {
+            let cell = ((cv + dv) * PADDED_CELLS + cu + du) * DIRECTIONS;
+            for (dp, wp) in [(0, 1.0 - fp), (1, fp)] {
+                hist[cell + (d + dp) % DIRECTIONS] += w * wu * wv * wp;
             }
         }
     }

@@ -75,28 +75,26 @@ pub(crate) fn nearest_pixel(v: f32) -> i64 {
 /// symmetries. Four times cheaper than the library's on the CPU, and written out so that
 /// `shaders/steered_descriptor.wgsl` computes it the same way. (0, 0) gives 0.
 pub(crate) fn fast_atan2(y: f32, x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, PI};
     let (ax, ay) = (x.abs(), y.abs());
-    let (num, den) = if ay > ax { (ax, ay) } else { (ay, ax) };
-    if den == 0.0 {
-        return 0.0;
-    }
-    let z = num / den;
+    let steep = ay > ax;
+    let (num, den) = if steep { (ax, ay) } else { (ay, ax) };
+    // Selects rather than an early return, so that loops over pixels vectorise; den = 0
+    // means x = y = 0, whose z = 0 gives 0 below.
+    let z = if den > 0.0 { num / den } else { 0.0 };
     let z2 = z * z;
-    let mut a = z
+    let a = z
         * (0.999_977_26
             + z2 * (-0.332_623_47
                 + z2 * (0.193_543_46
                     + z2 * (-0.116_432_87 + z2 * (0.052_653_32 + z2 * -0.011_721_2)))));
-    if ay > ax {
-        a = std::f32::consts::FRAC_PI_2 - a;
-    }
-    if x < 0.0 {
-        a = std::f32::consts::PI - a;
-    }
+    let a = if steep { FRAC_PI_2 - a } else { a };
+    let a = if x < 0.0 { PI - a } else { a };
     if y < 0.0 {
-        a = -a;
+        -a
+    } else {
+        a
     }
-    a
 }
 
 /// `a` wrapped into [0, 2π), written out so both backends compute it the same way.
