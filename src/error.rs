@@ -115,6 +115,18 @@ pub enum Error {
         #[source]
         source: Option<BoxError>,
     },
+    /// A ROS 2 bag's container cannot be read (not MCAP, truncated, corrupt): the messages
+    /// before the fault may have been read; none after it are.
+    #[error("{path}: {reason}")]
+    Bag {
+        /// The `.mcap` file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+        /// The MCAP reader's own error, when it gave one.
+        #[source]
+        source: Option<BoxError>,
+    },
     /// A text or data file (trajectory, frame list, calibration, laser log, homography,
     /// a helper's output) is malformed; the reason names the line where there is one.
     #[error("{path}: {reason}")]

@@ -73,6 +73,7 @@ macro_rules! named_variants {
     };
 }
 
+pub mod bag;
 pub mod error;
 pub mod features;
 pub mod gpu;

@@ -7,14 +7,15 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::Args;
+use steernav::bag::{frames as bag_frames, Bag, Topic};
 use steernav::slam::data::figure::{slam_figure, EstimatedPose};
 use steernav::slam::data::kitti;
 use steernav::slam::data::odometry::OdometryTrack;
-use steernav::slam::data::sequence;
+use steernav::slam::data::sequence::{self, Sequence};
 use steernav::slam::data::trajectory::{self, tum_line, Pose};
 use steernav::slam::motion::MotionModel;
 use steernav::slam::tracker::{FrameReport, Slam};
-use steernav::Frame;
+use steernav::{Frame, PinholeCamera};
 
 use crate::args::{progress, DetectorArgs};
 
@@ -22,9 +23,16 @@ use crate::args::{progress, DetectorArgs};
 pub struct SlamCmd {
     /// The sequence: a TUM RGB-D folder (rgb.txt + rgb/), a EuRoC folder (cam0/data.csv +
     /// cam0/data/), a KITTI odometry folder (image_0/ or image_l/, calib.txt, optional
-    /// times.txt and poses.txt), or a plain folder of frames sorted by name (timestamps from
-    /// --fps).
+    /// times.txt and poses.txt), a plain folder of frames sorted by name (timestamps from
+    /// --fps), or a ROS 2 bag (a rosbag2 folder with .mcap files, or one .mcap file): its
+    /// Image or CompressedImage topic, stamped by the message headers, and its CameraInfo.
     sequence: PathBuf,
+    /// The bag's image topic (sensor_msgs/msg/Image or CompressedImage), when it has several.
+    #[arg(long, value_name = "TOPIC")]
+    image_topic: Option<String>,
+    /// The bag's sensor_msgs/msg/CameraInfo topic, when it has several (--calib overrides it).
+    #[arg(long, value_name = "TOPIC")]
+    camera_info_topic: Option<String>,
     /// Calibration: TOML with a [camera] table (fx, fy, cx, cy, width, height, optional k1,
     /// k2, p1, p2, k3), a EuRoC sensor.yaml or a KITTI calib.txt (row P0). Defaults to the
     /// sequence's own sensor.yaml or calib.txt.
@@ -80,18 +88,11 @@ pub enum TrajectoryFormat {
 }
 
 pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
-    let seq = sequence::open(&cmd.sequence, cmd.fps)?;
-    if cmd.calib.is_none() && seq.calibration.is_none() {
-        bail!(
-            "{}: no calibration beside the frames; pass --calib CALIB.toml",
-            cmd.sequence.display()
-        );
-    }
-    let camera = seq.camera(cmd.calib.as_deref())?;
-    let frame_times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
-    let truth_path = cmd.ground_truth.clone().or(seq.ground_truth.clone());
+    let input = Input::open(&cmd)?;
+    let camera = input.camera(&cmd)?;
+    let truth_path = cmd.ground_truth.clone().or(input.ground_truth());
     let truth = match &truth_path {
-        Some(p) => Some(sequence::read_ground_truth(p, &frame_times)?),
+        Some(p) => Some(input.ground_truth_poses(p)?),
         None => None,
     };
     let mut config = cmd.detector.config.settings()?.slam;
@@ -108,10 +109,11 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         .detector
         .detector_from(steernav::DetectorConfig::tracking())?;
     let mut slam = Slam::new(camera.clone(), config)?;
-    for path in &seq.missing {
+    let missing = input.missing();
+    for path in missing {
         eprintln!("warning: {}: listed but missing; skipped", path.display());
     }
-    let frames = &seq.frames[..seq.frames.len().min(cmd.max_frames.unwrap_or(usize::MAX))];
+    let max_frames = cmd.max_frames.unwrap_or(usize::MAX);
     let out_err = |p: &Path| format!("{}: cannot write", p.display());
     std::fs::create_dir_all(&cmd.out).with_context(|| out_err(&cmd.out))?;
     let traj_path = cmd.out.join("trajectory.txt");
@@ -130,7 +132,7 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let bar = progress(frames.len(), "frames");
+    let bar = progress(input.len().min(max_frames), "frames");
     let mut estimated: Vec<EstimatedPose> = Vec::new();
     let mut reports: Vec<FrameReport> = Vec::new();
     let mut skipped = 0usize;
@@ -146,7 +148,8 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         }
     }
     let mut interrupted = false;
-    for item in frames {
+    let mut broken = None;
+    for (label, item) in input.frames(cmd.detector.max_pixels).take(max_frames) {
         if stop.load(std::sync::atomic::Ordering::SeqCst) {
             interrupted = true;
             bar.suspend(|| {
@@ -158,15 +161,22 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             break;
         }
         bar.inc(1);
-        let frame = match Frame::load_limited(&item.path, cmd.detector.max_pixels) {
+        let (timestamp, frame) = match item {
             Ok(f) => f,
+            // The bag itself is broken (cut short, corrupt): nothing after this point can be
+            // read, so the run ends here and writes what it has before reporting it.
+            Err(e @ steernav::Error::Bag { .. }) => {
+                bar.suspend(|| eprintln!("error: {e}; writing what was done"));
+                broken = Some(e);
+                break;
+            }
             Err(e) => {
                 bar.suspend(|| eprintln!("warning: {e}; frame skipped"));
                 skipped += 1;
                 continue;
             }
         };
-        let step = match odometry.as_mut().map(|track| track.step_to(item.timestamp)) {
+        let step = match odometry.as_mut().map(|track| track.step_to(timestamp)) {
             Some(Ok(step)) => step,
             Some(Err(e)) => {
                 bar.suspend(|| eprintln!("warning: {e}; frame skipped"));
@@ -175,10 +185,10 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             }
             None => None,
         };
-        let r = match slam.process(&frame, item.timestamp, step.as_ref(), &detector) {
+        let r = match slam.process(&frame, timestamp, step.as_ref(), &detector) {
             Ok(r) => r,
             Err(e) => {
-                bar.suspend(|| eprintln!("warning: {}: {e}; frame skipped", item.path.display()));
+                bar.suspend(|| eprintln!("warning: {label}: {e}; frame skipped"));
                 skipped += 1;
                 continue;
             }
@@ -224,7 +234,7 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             "{}: no frame was processed ({} skipped, {} missing)",
             cmd.sequence.display(),
             skipped,
-            seq.missing.len()
+            missing.len()
         );
     }
     let n = reports.len() as f64;
@@ -236,9 +246,9 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         "{}: {} frames ({} layout), {} skipped, {} missing; {} frames initialising, tracking lost on {} frames, relocalised {} times",
         cmd.sequence.display(),
         reports.len(),
-        seq.layout,
+        input.layout(),
         skipped,
-        seq.missing.len(),
+        missing.len(),
         initialising,
         lost,
         relocalised
@@ -276,6 +286,13 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     if let Some(path) = &cmd.plot {
         slam_figure(path, &estimated, aligned_truth.as_deref(), &map)?;
         println!("figure: {}", path.display());
+    }
+    if let Some(e) = broken {
+        return Err(anyhow::Error::new(e).context(format!(
+            "{}: stopped after {} frames; their trajectory, map and report are written",
+            cmd.sequence.display(),
+            reports.len()
+        )));
     }
     // 128 + SIGINT, as a shell reports an interrupted command.
     Ok(if interrupted {
@@ -319,4 +336,126 @@ fn write_map(path: &Path, map: &[steernav::slam::tracker::MapPoint]) -> anyhow::
     steernav::output::write_atomic(path, text.as_bytes())?;
     println!("map: {} ({} landmarks)", path.display(), map.len());
     Ok(())
+}
+
+/// Where `slam` reads its frames: a folder layout or a ROS 2 bag's image topic.
+enum Input {
+    Folder(Sequence),
+    Bag(Box<Bag>, Topic),
+}
+
+/// One frame to process, or why it cannot be, named by `label` (file, or bag topic and time).
+type FrameItem = (String, steernav::Result<(f64, Frame)>);
+
+impl Input {
+    fn open(cmd: &SlamCmd) -> anyhow::Result<Self> {
+        if steernav::bag::is_bag(&cmd.sequence) {
+            let bag = Bag::open(&cmd.sequence)?;
+            let topic = bag_frames::image_topic(&bag, cmd.image_topic.as_deref())?;
+            return Ok(Input::Bag(Box::new(bag), topic));
+        }
+        for (flag, given) in [
+            ("--image-topic", cmd.image_topic.is_some()),
+            ("--camera-info-topic", cmd.camera_info_topic.is_some()),
+        ] {
+            if given {
+                bail!(
+                    "{}: {flag} applies to ROS 2 bags only",
+                    cmd.sequence.display()
+                );
+            }
+        }
+        let seq = sequence::open(&cmd.sequence, cmd.fps)?;
+        if cmd.calib.is_none() && seq.calibration.is_none() {
+            bail!(
+                "{}: no calibration beside the frames; pass --calib CALIB.toml",
+                cmd.sequence.display()
+            );
+        }
+        Ok(Input::Folder(seq))
+    }
+
+    /// `--calib`, else the sequence's calibration or the bag's CameraInfo.
+    fn camera(&self, cmd: &SlamCmd) -> anyhow::Result<PinholeCamera> {
+        Ok(match self {
+            Input::Folder(seq) => seq.camera(cmd.calib.as_deref())?,
+            Input::Bag(bag, _) => match &cmd.calib {
+                Some(path) if path.extension().is_some_and(|e| e == "txt") => bail!(
+                    "{}: a KITTI calib.txt needs the frames' size; give a bag a TOML or sensor.yaml calibration",
+                    path.display()
+                ),
+                Some(path) => PinholeCamera::load(path)?,
+                None => bag_frames::camera(bag, cmd.camera_info_topic.as_deref())?,
+            },
+        })
+    }
+
+    fn ground_truth(&self) -> Option<PathBuf> {
+        match self {
+            Input::Folder(seq) => seq.ground_truth.clone(),
+            Input::Bag(..) => None,
+        }
+    }
+
+    fn ground_truth_poses(&self, path: &Path) -> anyhow::Result<Vec<Pose>> {
+        Ok(match self {
+            Input::Folder(seq) => {
+                let times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
+                sequence::read_ground_truth(path, &times)?
+            }
+            Input::Bag(..) => {
+                if kitti::looks_like_poses(path) {
+                    bail!(
+                        "{}: KITTI pose rows are matched to frames by number; a bag's ground truth must carry timestamps (TUM)",
+                        path.display()
+                    );
+                }
+                sequence::read_ground_truth(path, &[])?
+            }
+        })
+    }
+
+    fn missing(&self) -> &[PathBuf] {
+        match self {
+            Input::Folder(seq) => &seq.missing,
+            Input::Bag(..) => &[],
+        }
+    }
+
+    fn layout(&self) -> &'static str {
+        match self {
+            Input::Folder(seq) => seq.layout,
+            Input::Bag(..) => "ROS 2 bag",
+        }
+    }
+
+    /// Frames to come (a bag's from its message count when the summary has one).
+    fn len(&self) -> usize {
+        match self {
+            Input::Folder(seq) => seq.frames.len(),
+            Input::Bag(bag, topic) => bag.message_count(&topic.name).unwrap_or(0) as usize,
+        }
+    }
+
+    fn frames(&self, max_pixels: u64) -> Box<dyn Iterator<Item = FrameItem> + '_> {
+        match self {
+            Input::Folder(seq) => Box::new(seq.frames.iter().map(move |item| {
+                let label = item.path.display().to_string();
+                let frame =
+                    Frame::load_limited(&item.path, max_pixels).map(|f| (item.timestamp, f));
+                (label, frame)
+            })),
+            Input::Bag(bag, topic) => Box::new(
+                bag.messages(std::slice::from_ref(&topic.name))
+                    .map(move |m| match m {
+                        Ok(m) => (
+                            m.describe(&bag.path),
+                            bag_frames::decode_frame(&bag.path, &m, max_pixels)
+                                .map(|f| (f.timestamp, f.frame)),
+                        ),
+                        Err(e) => (bag.path.display().to_string(), Err(e)),
+                    }),
+            ),
+        }
+    }
 }

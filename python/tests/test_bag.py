@@ -1,0 +1,87 @@
+"""ROS 2 bags (issue 23): `steernav slam BAG` against bags written by the independent `rosbags`
+writer (tools/make_bag.py) from a generated sequence, compared with the same frames in a
+folder; and the bad-bag errors."""
+
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def run(*args, ok=True):
+    p = subprocess.run([str(a) for a in args], capture_output=True, text=True, timeout=600)
+    if ok:
+        assert p.returncode == 0, p.stderr
+    return p
+
+
+@pytest.fixture(scope="module")
+def sequence(cli_exe, tmp_path_factory):
+    out = tmp_path_factory.mktemp("synth") / "seq"
+    run(cli_exe, "slam-synth", "--frames", "60", "--out", out)
+    return out
+
+
+def make_bag(sequence, out, *flags):
+    run(sys.executable, ROOT / "tools" / "make_bag.py", sequence, out, *flags)
+    return out
+
+
+@pytest.fixture(scope="module")
+def folder_trajectory(cli_exe, sequence, tmp_path_factory):
+    out = tmp_path_factory.mktemp("slam-folder")
+    run(cli_exe, "slam", sequence, "--out", out, "--backend", "cpu")
+    return (out / "trajectory.txt").read_text()
+
+
+@pytest.mark.parametrize("flags", [(), ("--compressed",)], ids=["rgb8", "png"])
+def test_slam_on_a_bag_follows_the_folder_run(cli_exe, sequence, folder_trajectory, tmp_path, flags):
+    bag = make_bag(sequence, tmp_path / "bag", *flags)
+    out = tmp_path / "out"
+    p = run(cli_exe, "slam", bag, "--out", out, "--backend", "cpu")
+    assert "60 frames (ROS 2 bag layout)" in p.stdout
+    # Same frames, same CameraInfo-derived camera, same header stamps: the same trajectory.
+    assert (out / "trajectory.txt").read_text() == folder_trajectory
+    # A single .mcap file is a bag too.
+    (mcap,) = bag.glob("*.mcap")
+    run(cli_exe, "slam", mcap, "--out", tmp_path / "out2", "--backend", "cpu")
+    assert (tmp_path / "out2" / "trajectory.txt").read_text() == folder_trajectory
+
+
+def test_mono8_frames_track(cli_exe, sequence, tmp_path):
+    bag = make_bag(sequence, tmp_path / "bag", "--mono")
+    p = run(cli_exe, "slam", bag, "--out", tmp_path / "out", "--backend", "cpu")
+    assert "tracking lost on 0 frames" in p.stdout
+    rows = [l for l in (tmp_path / "out" / "trajectory.txt").read_text().splitlines() if not l.startswith("#")]
+    assert len(rows) == 60
+
+
+def test_bad_bags_are_refused_by_name(cli_exe, sequence, tmp_path):
+    two = make_bag(sequence, tmp_path / "two", "--extra-image-topic")
+    p = run(cli_exe, "slam", two, "--out", tmp_path / "x", ok=False)
+    assert p.returncode != 0 and "choose one with --image-topic" in p.stderr
+    assert "/camera/image, /camera2/image" in p.stderr
+    p = run(cli_exe, "slam", two, "--out", tmp_path / "x", "--image-topic", "/nope", ok=False)
+    assert p.returncode != 0 and "has no topic /nope" in p.stderr and "sensor_msgs/msg/CameraInfo" in p.stderr
+    not_mcap = tmp_path / "not.mcap"
+    not_mcap.write_text("hello")
+    p = run(cli_exe, "slam", not_mcap, "--out", tmp_path / "x", ok=False)
+    assert p.returncode != 0 and "not.mcap: not an MCAP file" in p.stderr
+
+
+def test_a_truncated_bag_keeps_what_was_read(cli_exe, sequence, tmp_path):
+    bag = make_bag(sequence, tmp_path / "bag")
+    (mcap,) = bag.glob("*.mcap")
+    data = mcap.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) // 2])
+    out = tmp_path / "out"
+    p = run(cli_exe, "slam", cut, "--out", out, "--backend", "cpu", ok=False)
+    assert p.returncode != 0, p.stdout
+    assert "cut.mcap" in p.stderr and "stopped after" in p.stderr, p.stderr
+    rows = [l for l in (out / "trajectory.txt").read_text().splitlines() if not l.startswith("#")]
+    assert 10 < len(rows) < 60
