@@ -2,8 +2,9 @@
 writer (tools/make_bag.py) from a generated sequence, compared with the same frames in a
 folder; and the bad-bag errors."""
 
+import json
+import math
 import pathlib
-import shutil
 import subprocess
 import sys
 
@@ -85,3 +86,36 @@ def test_a_truncated_bag_keeps_what_was_read(cli_exe, sequence, tmp_path):
     assert "cut.mcap" in p.stderr and "stopped after" in p.stderr, p.stderr
     rows = [l for l in (out / "trajectory.txt").read_text().splitlines() if not l.startswith("#")]
     assert 10 < len(rows) < 60
+
+
+def corridor_log(path):
+    """FLASER lines of a robot at (0.1 k, 0.02 k^1.5) heading along its path between walls."""
+    lines = ["# generated"]
+    n = 181
+    for k in range(120):
+        x, t = 0.1 * k, 100.0 + 0.1 * k
+        ranges = []
+        for i in range(n):
+            b = -math.pi / 2 + i * math.pi / (n - 1)
+            ranges.append(30.0 if abs(math.sin(b)) < 1e-6 else min(1.0 / abs(math.sin(b)), 30.0))
+        th = 0.05 * math.sin(0.1 * k)
+        lines.append("FLASER %d %s %.6f 0 %.6f %.6f 0 %.6f %.6f test %.6f"
+                     % (n, " ".join("%.3f" % r for r in ranges), x, th, x, th, t, t))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_nav_replay_on_a_bag_matches_the_carmen_log(cli_exe, tmp_path):
+    log = corridor_log(tmp_path / "corridor.log")
+    bag = tmp_path / "corridor_bag"
+    run(sys.executable, ROOT / "tools" / "carmen_to_bag.py", log, bag)
+    carmen = json.loads(run(cli_exe, "nav-replay", log, "--json").stdout)
+    ros = json.loads(run(cli_exe, "nav-replay", bag, "--json").stdout)
+    assert carmen["scans"] > 100 and ros["scans"] == carmen["scans"]
+    assert ros["free_fraction"] == carmen["free_fraction"]
+    # The bag carries the bearings and ranges as float32, the log as decimals read into f32.
+    assert abs(ros["mean_abs_deviation_deg"] - carmen["mean_abs_deviation_deg"]) < 1e-6
+    p = run(cli_exe, "nav-replay", bag, "--scan-topic", "/odom", ok=False)
+    assert p.returncode != 0 and "carries nav_msgs/msg/Odometry, not sensor_msgs/msg/LaserScan" in p.stderr
+    p = run(cli_exe, "nav-replay", log, "--scan-topic", "/scan", ok=False)
+    assert p.returncode != 0 and "apply to ROS 2 bags only" in p.stderr

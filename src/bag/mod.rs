@@ -5,9 +5,11 @@
 //! the bag's size. Chunks compressed with zstd or lz4 are read.
 //!
 //! [`messages`] holds the ROS 2 message types and their CDR decoding, [`frames`] turns image
-//! topics into [`crate::Frame`]s and a camera.
+//! topics into [`crate::Frame`]s and a camera, [`laser`] laser and odometry topics into the
+//! replay's scans.
 
 pub mod frames;
+pub mod laser;
 pub mod messages;
 
 use std::io::{BufReader, Read, Seek};

@@ -1,4 +1,5 @@
-//! `steernav nav-replay`: the neural field on every scan of a CARMEN laser log.
+//! `steernav nav-replay`: the neural field on every scan of a CARMEN laser log or of a ROS 2
+//! bag's LaserScan topic.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -9,8 +10,15 @@ use crate::args::ConfigArg;
 
 #[derive(Args)]
 pub struct NavReplayCmd {
-    /// CARMEN log (.log or .log.gz).
+    /// CARMEN log (.log or .log.gz), or a ROS 2 bag (rosbag2 folder or .mcap file) with a
+    /// sensor_msgs/msg/LaserScan topic and the robot's nav_msgs/msg/Odometry.
     log: PathBuf,
+    /// The bag's LaserScan topic, when it has several.
+    #[arg(long, value_name = "TOPIC")]
+    scan_topic: Option<String>,
+    /// The bag's Odometry topic, when it has several.
+    #[arg(long, value_name = "TOPIC")]
+    odom_topic: Option<String>,
     #[command(flatten)]
     config: ConfigArg,
     /// Print {"scans", "free_fraction", "mean_abs_deviation_deg"} as JSON.
@@ -20,7 +28,18 @@ pub struct NavReplayCmd {
 
 pub fn run(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
     let cfg = cmd.config.settings()?.replay;
-    let scans = steernav::nav::carmen::read_log(&cmd.log)?;
+    let scans = if steernav::bag::is_bag(&cmd.log) {
+        let bag = steernav::bag::Bag::open(&cmd.log)?;
+        steernav::bag::laser::scans(&bag, cmd.scan_topic.as_deref(), cmd.odom_topic.as_deref())?
+    } else {
+        if cmd.scan_topic.is_some() || cmd.odom_topic.is_some() {
+            anyhow::bail!(
+                "{}: --scan-topic and --odom-topic apply to ROS 2 bags only",
+                cmd.log.display()
+            );
+        }
+        steernav::nav::carmen::read_log(&cmd.log)?
+    };
     let r = steernav::nav::replay::replay(&scans, &cfg)?;
     if cmd.json {
         println!("{}", serde_json::to_string(&r)?);
