@@ -119,3 +119,36 @@ def test_nav_replay_on_a_bag_matches_the_carmen_log(cli_exe, tmp_path):
     assert p.returncode != 0 and "carries nav_msgs/msg/Odometry, not sensor_msgs/msg/LaserScan" in p.stderr
     p = run(cli_exe, "nav-replay", log, "--scan-topic", "/scan", ok=False)
     assert p.returncode != 0 and "apply to ROS 2 bags only" in p.stderr
+
+
+def recompress(src, dst, compression):
+    """Rewrites an MCAP file with chunks compressed by `compression`, with the `mcap` library's
+    own reader and writer (an implementation independent of rosbags and of steernav's)."""
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
+    with open(src, "rb") as f, open(dst, "wb") as out:
+        reader = make_reader(f)
+        writer = Writer(out, compression=CompressionType[compression], chunk_size=256 * 1024)
+        writer.start(profile="ros2", library="test")
+        schemas, channels = {}, {}
+        for schema, channel, message in reader.iter_messages():
+            if schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(
+                    channel.topic, channel.message_encoding, schemas[schema.id])
+            writer.add_message(channels[channel.id], message.log_time, message.data,
+                               message.publish_time)
+        writer.finish()
+
+
+@pytest.mark.parametrize("compression", ["ZSTD", "LZ4"])
+def test_compressed_chunks(cli_exe, sequence, folder_trajectory, tmp_path, compression):
+    bag = make_bag(sequence, tmp_path / "bag")
+    (mcap,) = bag.glob("*.mcap")
+    packed = tmp_path / f"packed_{compression}.mcap"
+    recompress(mcap, packed, compression)
+    assert packed.stat().st_size < mcap.stat().st_size
+    run(cli_exe, "slam", packed, "--out", tmp_path / "out", "--backend", "cpu")
+    assert (tmp_path / "out" / "trajectory.txt").read_text() == folder_trajectory
