@@ -219,3 +219,103 @@ pub fn frames<'a>(
     bag.messages(&[topic.to_string()])
         .map(move |m| decode_frame(&bag.path, &m?, max_pixels))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bag::BagMessage;
+
+    /// A CDR-encoded `Image` (little-endian encapsulation), built field by field.
+    fn image_message(
+        encoding: &str,
+        width: u32,
+        height: u32,
+        step: u32,
+        data: Vec<u8>,
+    ) -> BagMessage {
+        let body = (
+            (5i32, 500_000_000u32, "camera".to_string()),
+            height,
+            width,
+            encoding.to_string(),
+            0u8,
+            step,
+            serde_bytes::ByteBuf::from(data),
+        );
+        let mut bytes = vec![0, 1, 0, 0];
+        bytes.extend(cdr_encoding::to_vec::<_, byteorder::LittleEndian>(&body).unwrap());
+        BagMessage {
+            topic: "/cam".into(),
+            kind: IMAGE.into(),
+            log_time: 7,
+            data: bytes,
+        }
+    }
+
+    #[test]
+    fn raw_images_decode_with_their_step_and_channel_order() {
+        // 2×2 bgr8 rows padded to 8 bytes.
+        let data = vec![
+            10, 20, 30, 40, 50, 60, 0, 0, 70, 80, 90, 100, 110, 120, 0, 0,
+        ];
+        let m = image_message("bgr8", 2, 2, 8, data);
+        let f = decode_frame(Path::new("b.mcap"), &m, 1 << 20).unwrap();
+        assert_eq!(f.timestamp, 5.5);
+        assert_eq!(&f.frame.rgb[..6], &[30, 20, 10, 60, 50, 40]);
+        assert_eq!(&f.frame.rgb[6..], &[90, 80, 70, 120, 110, 100]);
+    }
+
+    #[test]
+    fn short_data_and_unknown_encodings_are_named() {
+        let m = image_message("rgb8", 4, 4, 12, vec![0; 40]);
+        let e = decode_frame(Path::new("b.mcap"), &m, 1 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("b.mcap: /cam at log time") && e.contains("height × step"),
+            "{e}"
+        );
+        let m = image_message("yuv422", 2, 2, 4, vec![0; 8]);
+        let e = decode_frame(Path::new("b.mcap"), &m, 1 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("\"yuv422\" is not supported"), "{e}");
+        let m = image_message("mono8", 100, 100, 100, vec![0; 10_000]);
+        let e = decode_frame(Path::new("b.mcap"), &m, 5000)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--max-pixels"), "{e}");
+        let mut m = image_message("mono8", 2, 2, 2, vec![0; 4]);
+        m.data.truncate(12);
+        let e = decode_frame(Path::new("b.mcap"), &m, 1 << 20)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("corrupt CDR message"), "{e}");
+    }
+
+    #[test]
+    fn a_camera_without_focal_length_is_refused() {
+        let info = CameraInfo {
+            header: Default::default(),
+            height: 480,
+            width: 640,
+            distortion_model: "plumb_bob".into(),
+            d: vec![0.1, 0.0, 0.0, 0.0, 0.0],
+            k: crate::bag::messages::Fixed([0.0, 0.0, 320.0, 0.0, 0.0, 240.0, 0.0, 0.0, 1.0]),
+            r: crate::bag::messages::Fixed([0.0; 9]),
+            p: crate::bag::messages::Fixed([0.0; 12]),
+            binning_x: 0,
+            binning_y: 0,
+            roi: Default::default(),
+        };
+        let e = camera_from_info(&info, "b.mcap: /info")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not positive"), "{e}");
+        let mut good = info.clone();
+        good.k.0[0] = 500.0;
+        good.k.0[4] = 500.0;
+        let c = camera_from_info(&good, "b.mcap: /info").unwrap();
+        assert_eq!((c.fx, c.cx, c.k1, c.width), (500.0, 320.0, 0.1, 640));
+    }
+}
