@@ -152,3 +152,37 @@ def test_compressed_chunks(cli_exe, sequence, folder_trajectory, tmp_path, compr
     assert packed.stat().st_size < mcap.stat().st_size
     run(cli_exe, "slam", packed, "--out", tmp_path / "out", "--backend", "cpu")
     assert (tmp_path / "out" / "trajectory.txt").read_text() == folder_trajectory
+
+
+def decoded(path):
+    """(topic, schema name, log time, message) of every message, decoded by mcap-ros2-support."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        return [(c.topic, s.name, m.log_time, d) for s, c, m, d in reader.iter_decoded_messages()]
+
+
+def test_slam_results_as_mcap(cli_exe, sequence, tmp_path):
+    bag = make_bag(sequence, tmp_path / "bag")
+    out = tmp_path / "out"
+    run(cli_exe, "slam", bag, "--out", out, "--mcap", tmp_path / "slam.mcap", "--backend", "cpu")
+    rows = [l.split() for l in (out / "trajectory.txt").read_text().splitlines() if not l.startswith("#")]
+    msgs = decoded(tmp_path / "slam.mcap")
+    poses = [m for m in msgs if m[0] == "/steernav/pose"]
+    assert len(poses) == len(rows) == 60
+    assert {m[1] for m in poses} == {"geometry_msgs/msg/PoseStamped"}
+    for (_, _, log_time, p), row in zip(poses, rows):
+        t = float(row[0])
+        assert abs(p.header.stamp.sec + p.header.stamp.nanosec * 1e-9 - t) < 1e-9
+        assert abs(log_time * 1e-9 - t) < 1e-6 and p.header.frame_id == "map"
+        q = p.pose.orientation
+        assert [round(v, 6) for v in (p.pose.position.x, q.x, q.w)] == [
+            round(float(row[1]), 6), round(float(row[4]), 6), round(float(row[7]), 6)]
+    (path,) = [m for m in msgs if m[0] == "/steernav/path"]
+    assert path[1] == "nav_msgs/msg/Path" and len(path[3].poses) == 60
+    (cloud,) = [m for m in msgs if m[0] == "/steernav/landmarks"]
+    assert cloud[1] == "sensor_msgs/msg/PointCloud2"
+    assert [f.name for f in cloud[3].fields] == ["x", "y", "z"]
+    assert cloud[3].width > 10 and len(cloud[3].data) == 12 * cloud[3].width

@@ -3,12 +3,12 @@
 //! `cdr-encoding` after the 4-byte encapsulation header that ROS 2 puts before every message.
 
 use serde::de::{DeserializeOwned, SeqAccess, Visitor};
-use serde::{Deserialize, Deserializer};
+use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::error::{Error, Result};
 
 /// `builtin_interfaces/msg/Time`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Deserialize, Serialize)]
 pub struct Time {
     /// Seconds.
     pub sec: i32,
@@ -20,12 +20,27 @@ impl Time {
     /// Seconds as a float: the nanosecond count divided once, so that a stamp written from a
     /// decimal time (5.833333 s) reads back as the same double as the decimal parsed.
     pub fn seconds(&self) -> f64 {
-        (self.sec as i64 * 1_000_000_000 + self.nanosec as i64) as f64 / 1e9
+        self.nanoseconds() as f64 / 1e9
+    }
+
+    /// Nanoseconds since the epoch.
+    pub fn nanoseconds(&self) -> i64 {
+        self.sec as i64 * 1_000_000_000 + self.nanosec as i64
+    }
+
+    /// The stamp of `t` seconds, to the nearest nanosecond (saturating at the i32 range).
+    pub fn from_seconds(t: f64) -> Self {
+        let ns = (t * 1e9).round() as i64;
+        let sec = ns.div_euclid(1_000_000_000);
+        Self {
+            sec: sec.clamp(i32::MIN as i64, i32::MAX as i64) as i32,
+            nanosec: ns.rem_euclid(1_000_000_000) as u32,
+        }
     }
 }
 
 /// `std_msgs/msg/Header`.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
 pub struct Header {
     /// Acquisition time.
     pub stamp: Time,

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context};
 use clap::Args;
+use steernav::bag::write::{self, BagWriter, PathOut, PointCloud2, PoseOut, PoseStamped};
 use steernav::bag::{frames as bag_frames, Bag, Topic};
 use steernav::slam::data::figure::{slam_figure, EstimatedPose};
 use steernav::slam::data::kitti;
@@ -59,6 +60,12 @@ pub struct SlamCmd {
     /// Per-frame CSV: counts (predicted, matched, inliers, …) and timings.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
+    /// Also write the results as MCAP for ROS 2 tools and Foxglove: a
+    /// geometry_msgs/msg/PoseStamped on /steernav/pose per frame (stamped like the frame, in
+    /// the `map` frame), then nav_msgs/msg/Path on /steernav/path and the landmarks as
+    /// sensor_msgs/msg/PointCloud2 on /steernav/landmarks.
+    #[arg(long, value_name = "FILE")]
+    mcap: Option<PathBuf>,
     /// Frame rate giving timestamps to a plain folder of frames (default 30) or to a KITTI
     /// folder without times.txt (default 10).
     #[arg(long)]
@@ -130,6 +137,10 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 .with_context(|| out_err(path))?;
             Some((path.clone(), f))
         }
+        None => None,
+    };
+    let mut mcap = match &cmd.mcap {
+        Some(path) => Some(results_bag(path)?),
         None => None,
     };
     let bar = progress(input.len().min(max_frames), "frames");
@@ -204,6 +215,11 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         };
         writeln!(traj, "{line}").with_context(|| out_err(&traj_path))?;
         traj.flush().with_context(|| out_err(&traj_path))?;
+        if let Some(bag) = &mut mcap {
+            bag.write(POSE_TOPIC, timestamp, &pose_stamped(&r))?;
+            // Flushed every frame, as the trajectory is: a killed run keeps every pose.
+            bag.flush()?;
+        }
         if let Some((path, f)) = &mut report {
             let row = r.csv_record();
             f.write_record(&row).with_context(|| out_err(path))?;
@@ -228,6 +244,25 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let map = slam.map();
     if let Some(path) = &cmd.map {
         write_map(path, &map)?;
+    }
+    if let Some(mut bag) = mcap {
+        let end = reports.last().map_or(0.0, |r| r.timestamp);
+        let poses: Vec<PoseStamped> = reports.iter().map(pose_stamped).collect();
+        bag.write(
+            PATH_TOPIC,
+            end,
+            &PathOut {
+                header: write::header(end, "map"),
+                poses,
+            },
+        )?;
+        let points: Vec<[f64; 3]> = map.iter().map(|m| m.position).collect();
+        bag.write(
+            LANDMARKS_TOPIC,
+            end,
+            &PointCloud2::xyz(write::header(end, "map"), &points),
+        )?;
+        bag.finish()?;
     }
     if reports.is_empty() {
         bail!(
@@ -457,5 +492,38 @@ impl Input {
                     }),
             ),
         }
+    }
+}
+
+const POSE_TOPIC: &str = "/steernav/pose";
+const PATH_TOPIC: &str = "/steernav/path";
+const LANDMARKS_TOPIC: &str = "/steernav/landmarks";
+
+/// The `--mcap` file with its three topics declared.
+fn results_bag(path: &Path) -> anyhow::Result<BagWriter> {
+    let mut bag = BagWriter::create(path)?;
+    bag.add_topic(
+        POSE_TOPIC,
+        "geometry_msgs/msg/PoseStamped",
+        &write::pose_stamped_schema(),
+    )?;
+    bag.add_topic(PATH_TOPIC, "nav_msgs/msg/Path", &write::path_schema())?;
+    bag.add_topic(
+        LANDMARKS_TOPIC,
+        "sensor_msgs/msg/PointCloud2",
+        &write::point_cloud2_schema(),
+    )?;
+    Ok(bag)
+}
+
+/// A frame's camera pose in the `map` frame (ROS quaternions are x, y, z, w).
+fn pose_stamped(r: &FrameReport) -> PoseStamped {
+    let q = r.orientation;
+    PoseStamped {
+        header: write::header(r.timestamp, "map"),
+        pose: PoseOut {
+            position: r.position,
+            orientation: [q[1], q[2], q[3], q[0]],
+        },
     }
 }
