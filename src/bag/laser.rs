@@ -30,7 +30,7 @@ pub fn scans(bag: &Bag, scan_topic: Option<&str>, odom_topic: Option<&str>) -> R
     let topics = [scan_topic.name.clone(), odom_topic.name.clone()];
     // Per scan: stamp, beams, and the pose of an odometry message with the same stamp that
     // came just before it (logs with coarse stamps repeat one stamp over several poses).
-    type Raw = (f64, Vec<f32>, Vec<f32>, Option<Pose2>);
+    type Raw = (f64, Vec<f32>, Vec<f32>, f32, Option<Pose2>);
     let mut raw: Vec<Raw> = Vec::new();
     let mut poses: Vec<Pose2> = Vec::new();
     for m in bag.messages(&topics) {
@@ -58,18 +58,19 @@ pub fn scans(bag: &Bag, scan_topic: Option<&str>, odom_topic: Option<&str>) -> R
             let (ranges, bearings) = beams(&s, &what)?;
             let time = s.header.stamp.seconds();
             let same = poses.last().copied().filter(|p| p.time == time);
-            raw.push((time, ranges, bearings, same));
+            raw.push((time, ranges, bearings, s.angle_increment.abs(), same));
         }
     }
     // Scans stay in the bag's order, as a log's do; the poses are sorted for interpolation.
     poses.sort_by(|a, b| a.time.total_cmp(&b.time));
     let mut out = Vec::with_capacity(raw.len());
     let mut outside = 0;
-    for (time, ranges, bearings, same) in raw {
+    for (time, ranges, bearings, angle_increment, same) in raw {
         match same.or_else(|| pose_at(&poses, time)) {
             Some(p) => out.push(Scan {
                 ranges,
                 bearings,
+                angle_increment,
                 x: p.x,
                 y: p.y,
                 theta: p.theta,

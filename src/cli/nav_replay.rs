@@ -6,7 +6,12 @@ use std::process::ExitCode;
 
 use clap::Args;
 
+use steernav::bag::write::{self, BagWriter, TwistOut};
+
 use crate::args::ConfigArg;
+
+const CMD_VEL: &str = "/steernav/cmd_vel";
+const HEADING: &str = "/steernav/heading";
 
 #[derive(Args)]
 pub struct NavReplayCmd {
@@ -24,6 +29,12 @@ pub struct NavReplayCmd {
     /// Print {"scans", "free_fraction", "mean_abs_deviation_deg"} as JSON.
     #[arg(long)]
     json: bool,
+    /// Also write, per evaluated scan and stamped with it, the command as
+    /// geometry_msgs/msg/Twist on /steernav/cmd_vel (linear.x the speed, angular.z the turn
+    /// rate) and the chosen heading (rad, robot frame) as std_msgs/msg/Float64 on
+    /// /steernav/heading, as MCAP for ROS 2 tools and Foxglove.
+    #[arg(long, value_name = "FILE")]
+    mcap: Option<PathBuf>,
 }
 
 pub fn run(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
@@ -40,7 +51,35 @@ pub fn run(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
         }
         steernav::nav::carmen::read_log(&cmd.log)?
     };
-    let r = steernav::nav::replay::replay(&scans, &cfg)?;
+    let r = match &cmd.mcap {
+        None => steernav::nav::replay::replay(&scans, &cfg)?,
+        Some(path) => {
+            let mut bag = BagWriter::create(path)?;
+            bag.add_topic(CMD_VEL, "geometry_msgs/msg/Twist", &write::twist_schema())?;
+            bag.add_topic(HEADING, "std_msgs/msg/Float64", &write::float64_schema())?;
+            let mut since_flush = 0;
+            let r = steernav::nav::replay::replay_with(&scans, &cfg, |step| {
+                let c = step.command;
+                bag.write(
+                    CMD_VEL,
+                    step.time,
+                    &TwistOut {
+                        linear: [c.v as f64, 0.0, 0.0],
+                        angular: [0.0, 0.0, c.omega as f64],
+                    },
+                )?;
+                bag.write(HEADING, step.time, &(c.heading as f64))?;
+                since_flush += 1;
+                if since_flush == 100 {
+                    since_flush = 0;
+                    bag.flush()?;
+                }
+                Ok(())
+            })?;
+            bag.finish()?;
+            r
+        }
+    };
     if cmd.json {
         println!("{}", serde_json::to_string(&r)?);
     } else {

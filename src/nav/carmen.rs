@@ -14,6 +14,9 @@ pub struct Scan {
     pub ranges: Vec<f32>,
     /// Bearing of each beam in the robot frame (rad, 0 ahead, positive to the left).
     pub bearings: Vec<f32>,
+    /// Angle between neighbouring beams of the scanner (rad); beams discarded from a scan
+    /// leave it unchanged.
+    pub angle_increment: f32,
     /// Corrected pose: x (m).
     pub x: f64,
     /// Corrected pose: y (m).
@@ -103,6 +106,7 @@ pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
         scans.push(Scan {
             ranges,
             bearings,
+            angle_increment: std::f32::consts::PI / (n - 1) as f32,
             x,
             y,
             theta,

@@ -161,6 +161,29 @@ pub fn is_free(scan: &Scan, heading: f32, safety: f32, halfwidth: f32) -> bool {
 
 /// Replays a log.
 pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
+    replay_with(scans, cfg, |_| Ok(()))
+}
+
+/// What the field did on one evaluated scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReplayStep {
+    /// The scan's time (s).
+    pub time: f64,
+    /// The controller's command: speed, turn rate and the chosen heading (robot frame).
+    pub command: super::controller::Command,
+    /// Direction of the real motion over the look-ahead (robot frame, rad).
+    pub target: f32,
+    /// Whether the chosen heading is free.
+    pub free: bool,
+}
+
+/// [`replay`], handing every evaluated scan's [`ReplayStep`] to `each` as it is computed (for
+/// writing them out); an error from `each` stops the replay.
+pub fn replay_with(
+    scans: &[Scan],
+    cfg: &ReplayConfig,
+    mut each: impl FnMut(&ReplayStep) -> Result<()>,
+) -> Result<ReplayResult> {
     cfg.validate()?;
     // The robot-frame controller of a robot at the origin facing +x: the log's own poses
     // only give the target, so the ring is the scanner's frame.
@@ -193,14 +216,20 @@ pub fn replay(scans: &[Scan], cfg: &ReplayConfig) -> Result<ReplayResult> {
         let laser = LaserScan {
             ranges: scan.ranges.clone(),
             bearings: scan.bearings.clone(),
-            angle_increment: std::f32::consts::PI / (scan.ranges.len().max(2) - 1) as f32,
+            angle_increment: scan.angle_increment,
             range_max: f32::INFINITY,
         };
-        let heading = controller
-            .step_towards(&laser, [0.0; 3], target, 1.0, None)?
-            .heading;
+        let command = controller.step_towards(&laser, [0.0; 3], target, 1.0, None)?;
+        let heading = command.heading;
+        let is = is_free(scan, heading, cfg.safety, halfwidth);
+        each(&ReplayStep {
+            time: scan.time,
+            command,
+            target,
+            free: is,
+        })?;
         evaluated += 1;
-        free += is_free(scan, heading, cfg.safety, halfwidth) as usize;
+        free += is as usize;
         deviation += angle_diff(heading, target).abs().to_degrees() as f64;
     }
     if evaluated == 0 {
