@@ -203,3 +203,26 @@ def test_nav_replay_commands_as_mcap(cli_exe, tmp_path):
     assert all(t.angular.x == 0 and t.linear.x > 0 for _, _, _, t in twists)
     # The corridor runs straight ahead: the chosen headings stay near 0.
     assert max(abs(h.data) for _, _, _, h in headings) < 0.5
+
+
+def test_detect_on_a_bag_names_records_by_topic_and_stamp(cli_exe, sequence, tmp_path):
+    bag = make_bag(sequence, tmp_path / "bag", "--compressed")
+    out = tmp_path / "out"
+    run(cli_exe, "detect", bag, "--out", out, "--mcap", tmp_path / "kp.mcap", "--backend", "cpu")
+    records = sorted(out.glob("*.json"))
+    assert len(records) == 60 and records[1].name == "camera_image_0.033333000.json"
+    first = json.loads(records[0].read_text())
+    assert first["image"].endswith(":/camera/image@0.000000000") and first["width"] == 320
+    # The same keypoints as detect on the frame's own file.
+    own = json.loads(run(cli_exe, "detect", sequence / "rgb" / "000000.png", "--backend", "cpu").stdout)
+    assert first["keypoints"] == own["keypoints"]
+    msgs = decoded(tmp_path / "kp.mcap")
+    assert len(msgs) == 60 and {m[1] for m in msgs} == {"foxglove_msgs/msg/ImageAnnotations"}
+    topic, _, log_time, ann = msgs[1]
+    assert topic == "/steernav/keypoints" and log_time == 33_333_000
+    assert ann.circles[0].timestamp.nanosec == 33_333_000
+    rec = json.loads(records[1].read_text())
+    assert len(ann.points[0].points) == len(ann.circles) == len(rec["keypoints"])
+    assert abs(ann.points[0].points[0].x - rec["keypoints"][0]["x"]) < 1e-4
+    p = run(cli_exe, "detect", bag, sequence / "rgb" / "000000.png", ok=False)
+    assert p.returncode != 0 and "only input" in p.stderr

@@ -14,24 +14,34 @@ use crate::{draw, StdoutFailed};
 
 #[derive(Args)]
 pub struct DetectCmd {
-    /// Input images (PNG, JPEG, PPM/PGM, TIFF, BMP).
+    /// Input images (PNG, JPEG, PPM/PGM, TIFF, BMP), or one ROS 2 bag (rosbag2 folder or
+    /// .mcap file): every message of its Image or CompressedImage topic, each record named
+    /// by topic and header stamp.
     #[arg(required = true, value_name = "IMAGE")]
-    images: Vec<PathBuf>,
+    pub(crate) images: Vec<PathBuf>,
+    /// The bag's image topic, when it has several.
+    #[arg(long, value_name = "TOPIC")]
+    pub(crate) image_topic: Option<String>,
+    /// With a bag: also write the keypoints of every image as
+    /// foxglove_msgs/msg/ImageAnnotations (points, and circles of radius 3σ_D) on
+    /// /steernav/keypoints, stamped like the image, so that Foxglove draws them over it.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) mcap: Option<PathBuf>,
     #[command(flatten)]
-    detector: DetectorArgs,
+    pub(crate) detector: DetectorArgs,
     /// Write CSV (x,y,scale,angle,response and the descriptor's columns, d0..d127 or
     /// h16..h256, per keypoint) instead of the keypoint JSON.
     #[arg(long)]
-    csv: bool,
+    pub(crate) csv: bool,
     /// Write one file per image (<name>.json or .csv) into DIR instead of stdout.
     #[arg(long, value_name = "DIR")]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Also write <name>_keypoints.png (circles of radius 3σ_D, orientation ticks) into --out or the current directory.
     #[arg(long)]
-    draw: bool,
+    pub(crate) draw: bool,
 }
 
-fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
+pub(crate) fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
     let scales: Vec<String> = detector
         .plan()
         .scales
@@ -61,6 +71,20 @@ fn summary_line(image: &Path, d: &Detection, detector: &Detector) -> String {
 }
 
 pub fn run(cmd: DetectCmd) -> anyhow::Result<ExitCode> {
+    if let [only] = cmd.images.as_slice() {
+        if steernav::bag::is_bag(only) {
+            return crate::detect_bag::run(&cmd, only);
+        }
+    }
+    if let Some(bag) = cmd.images.iter().find(|p| steernav::bag::is_bag(p)) {
+        bail!(
+            "{}: a ROS 2 bag is read on its own: give it as the only input",
+            bag.display()
+        );
+    }
+    if cmd.image_topic.is_some() || cmd.mcap.is_some() {
+        bail!("--image-topic and --mcap apply to a ROS 2 bag input only");
+    }
     if cmd.images.len() > 1 && cmd.out.is_none() && cmd.csv {
         bail!("several images with --csv need --out DIR (one CSV per image)");
     }

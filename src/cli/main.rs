@@ -32,6 +32,7 @@ mod args;
 mod batch;
 mod bench;
 mod detect;
+mod detect_bag;
 mod draw;
 mod eval;
 mod gist;
