@@ -226,3 +226,16 @@ def test_detect_on_a_bag_names_records_by_topic_and_stamp(cli_exe, sequence, tmp
     assert abs(ann.points[0].points[0].x - rec["keypoints"][0]["x"]) < 1e-4
     p = run(cli_exe, "detect", bag, sequence / "rgb" / "000000.png", ok=False)
     assert p.returncode != 0 and "only input" in p.stderr
+
+
+def test_batch_on_a_bag_resumes(cli_exe, sequence, tmp_path):
+    bag = make_bag(sequence, tmp_path / "bag")
+    out = tmp_path / "out"
+    p = run(cli_exe, "batch", bag, "--out", out, "--backend", "cpu")
+    assert "60 images detected, 0 skipped" in p.stderr
+    rows = (out / "summary.csv").read_text().splitlines()
+    assert len(rows) == 61 and rows[1].split(",")[1] == "done"
+    (out / "camera_image_0.033333000.json").unlink()
+    p = run(cli_exe, "batch", bag, "--out", out, "--backend", "cpu")
+    assert "1 images detected, 59 skipped" in p.stderr
+    assert len(list(out.glob("*.json"))) == 60

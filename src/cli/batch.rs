@@ -254,7 +254,7 @@ pub fn run_tree(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> 
 }
 
 /// The figures of an earlier run's JSON, so a re-run's summary keeps its rows whole.
-fn previous_figures(json: &Path) -> Option<(u32, u32, usize, String)> {
+pub(crate) fn previous_figures(json: &Path) -> Option<(u32, u32, usize, String)> {
     let text = std::fs::read_to_string(json).ok()?;
     let record: ImageKeypoints = serde_json::from_str(&text).ok()?;
     Some((
@@ -372,8 +372,16 @@ pub fn summary_csv(entries: &[Entry]) -> String {
 
 #[derive(Args)]
 pub struct BatchCmd {
-    /// Directory searched recursively for images.
+    /// Directory searched recursively for images, or a ROS 2 bag (rosbag2 folder or .mcap
+    /// file): every message of its image topic, each record named by topic and header stamp.
     input: PathBuf,
+    /// The bag's image topic, when it has several.
+    #[arg(long, value_name = "TOPIC")]
+    image_topic: Option<String>,
+    /// With a bag: also write the keypoints as foxglove_msgs/msg/ImageAnnotations on
+    /// /steernav/keypoints, stamped like the images (see `detect --mcap`).
+    #[arg(long, value_name = "FILE")]
+    mcap: Option<PathBuf>,
     /// Output directory: one <image>.json per image (mirroring the input tree) and summary.csv.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
@@ -389,6 +397,35 @@ pub struct BatchCmd {
 
 pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
     let detector = cmd.detector.detector()?;
+    if steernav::bag::is_bag(&cmd.input) {
+        if cmd.draw {
+            anyhow::bail!(
+                "--draw is for image files; open a bag's --mcap annotations in Foxglove instead"
+            );
+        }
+        std::fs::create_dir_all(&cmd.out)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create: {e}", cmd.out.display()))?;
+        let (entries, broken) = crate::detect_bag::detect_bag(
+            &detector,
+            &crate::detect_bag::BagRun {
+                path: &cmd.input,
+                topic: cmd.image_topic.as_deref(),
+                out: Some(&cmd.out),
+                csv: false,
+                mcap: cmd.mcap.as_deref(),
+                max_pixels: cmd.detector.max_pixels,
+                skip_done: !cmd.force,
+            },
+        )?;
+        write_atomic(
+            &cmd.out.join("summary.csv"),
+            summary_csv(&entries).as_bytes(),
+        )?;
+        return crate::detect_bag::finish(&cmd.input, &entries, broken);
+    }
+    if cmd.image_topic.is_some() || cmd.mcap.is_some() {
+        anyhow::bail!("--image-topic and --mcap apply to a ROS 2 bag input only");
+    }
     let opts = BatchOptions {
         input: cmd.input,
         output: cmd.out,

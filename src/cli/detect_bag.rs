@@ -3,6 +3,7 @@
 //! Foxglove image annotations in an MCAP file.
 
 use std::path::{Path, PathBuf};
+
 use std::process::ExitCode;
 
 use anyhow::bail;
@@ -13,8 +14,9 @@ use steernav::bag::write::{
 };
 use steernav::bag::Bag;
 use steernav::output::{write_atomic, ImageKeypoints};
-use steernav::Keypoint;
+use steernav::{Detector, Keypoint};
 
+use crate::batch::{previous_figures, Entry, Outcome};
 use crate::detect::{summary_line, DetectCmd};
 use crate::StdoutFailed;
 
@@ -84,17 +86,32 @@ pub(crate) fn annotations(stamp: f64, keypoints: &[Keypoint]) -> ImageAnnotation
     }
 }
 
-pub fn run(cmd: &DetectCmd, path: &Path) -> anyhow::Result<ExitCode> {
-    if cmd.csv && cmd.out.is_none() {
-        bail!("a bag with --csv needs --out DIR (one CSV per image message)");
-    }
-    if cmd.draw {
-        bail!("--draw is for image files; open a bag's --mcap annotations in Foxglove instead");
-    }
-    let bag = Bag::open(path)?;
-    let topic = bag_frames::image_topic(&bag, cmd.image_topic.as_deref())?;
-    let detector = cmd.detector.detector()?;
-    let mut mcap = match &cmd.mcap {
+/// One detection run over a bag's image topic.
+pub(crate) struct BagRun<'a> {
+    /// The bag (folder or .mcap).
+    pub path: &'a Path,
+    /// `--image-topic`.
+    pub topic: Option<&'a str>,
+    /// Where the records go (`None`: stdout, JSON lines).
+    pub out: Option<&'a Path>,
+    /// CSV records instead of JSON.
+    pub csv: bool,
+    /// `--mcap`: the annotations file.
+    pub mcap: Option<&'a Path>,
+    /// `--max-pixels`.
+    pub max_pixels: u64,
+    /// Leave out images whose record exists (batch re-runs).
+    pub skip_done: bool,
+}
+
+/// The outcome of every image message, and the bag's own fault if it ended the stream (the
+/// images before it are processed and written).
+pub(crate) type BagOutcome = (Vec<Entry>, Option<steernav::Error>);
+
+pub(crate) fn detect_bag(detector: &Detector, run: &BagRun) -> anyhow::Result<BagOutcome> {
+    let bag = Bag::open(run.path)?;
+    let topic = bag_frames::image_topic(&bag, run.topic)?;
+    let mut mcap = match run.mcap {
         Some(file) => {
             let mut w = BagWriter::create(file)?;
             w.add_topic(
@@ -106,79 +123,105 @@ pub fn run(cmd: &DetectCmd, path: &Path) -> anyhow::Result<ExitCode> {
         }
         None => None,
     };
-    let max_pixels = cmd.detector.max_pixels;
+    let ext = if run.csv { "csv" } else { "json" };
+    let output = |tag: &Tag| run.out.map(|dir| dir.join(format!("{}.{ext}", tag.name)));
     let names = [topic.name.clone()];
-    // A broken container ends the stream; what was read before is processed and written.
     let mut broken = None;
+    let mut entries = Vec::new();
     let items = bag.messages(&names).map_while(|m| match m {
         Ok(m) => {
-            let decoded = bag_frames::decode_frame(&bag.path, &m, max_pixels);
+            let decoded = bag_frames::decode_frame(&bag.path, &m, run.max_pixels);
             let stamp = decoded.as_ref().map_or(f64::NAN, |f| f.timestamp);
-            let label = m.describe(&bag.path);
-            Some((
-                (tag(&bag.path, &topic.name, stamp), label),
-                decoded.map(|f| f.frame),
-            ))
+            Some((tag(&bag.path, &topic.name, stamp), decoded.map(|f| f.frame)))
         }
         Err(e) => {
             broken = Some(e);
             None
         }
     });
-    let (mut failed, mut done) = (0usize, 0usize);
+    // Images already done (batch re-runs) are not detected again.
+    let items = items.filter_map(|(tag, frame)| {
+        let done = output(&tag).filter(|o| run.skip_done && frame.is_ok() && o.exists());
+        match done {
+            Some(o) => {
+                entries.push(Entry {
+                    image: tag.label,
+                    outcome: Outcome::Skipped {
+                        previous: previous_figures(&o),
+                    },
+                    output: o,
+                });
+                None
+            }
+            None => Some((tag, frame)),
+        }
+    });
     let mut stdout_failed = None;
     let mut fatal: Option<anyhow::Error> = None;
-    detector.detect_stream(items, |(tag, label), result| {
+    let mut outcomes = Vec::new();
+    detector.detect_stream(items, |tag, result| {
         if stdout_failed.is_some() || fatal.is_some() {
             return;
         }
+        let target = output(&tag).unwrap_or_default();
+        let entry = |outcome| Entry {
+            image: tag.label.clone(),
+            output: target.clone(),
+            outcome,
+        };
         let (frame, d) = match result {
             Ok(r) => r,
             Err(e) => {
-                eprintln!("error: {label}: {e}; image skipped");
-                failed += 1;
+                eprintln!("error: {e}; image skipped");
+                outcomes.push(entry(Outcome::Failed(e.to_string())));
                 return;
             }
         };
-        eprintln!("{}", summary_line(&tag.label, &d, &detector));
+        eprintln!("{}", summary_line(&tag.label, &d, detector));
+        let t = &d.timings;
+        let ms = t.harris_ms + t.merge_ms + t.descriptor_ms;
+        let (candidates, backend) = (d.candidates, d.backend);
         let record = ImageKeypoints::new(&tag.label, &frame, d);
-        let write_out = || -> anyhow::Result<()> {
-            let (text, ext) = if cmd.csv {
-                (record.to_csv(), "csv")
+        let written = || -> anyhow::Result<()> {
+            let text = if run.csv {
+                record.to_csv()
             } else {
-                (record.to_json(), "json")
+                record.to_json()
             };
-            match &cmd.out {
-                Some(dir) => {
-                    write_atomic(&dir.join(format!("{}.{ext}", tag.name)), text.as_bytes())?
-                }
+            match run.out {
+                Some(_) => write_atomic(&target, text.as_bytes())?,
                 None => println!("{}", text.trim_end()),
             }
             Ok(())
         };
-        if let Err(e) = write_out() {
+        if let Err(e) = written() {
             if e.is::<StdoutFailed>() {
                 stdout_failed = Some(e);
             } else {
                 eprintln!("error: {}", crate::error_chain(&e));
-                failed += 1;
+                outcomes.push(entry(Outcome::Failed(crate::error_chain(&e))));
             }
             return;
         }
         if let Some(w) = &mut mcap {
-            let written = w
-                .write(
-                    KEYPOINTS_TOPIC,
-                    tag.stamp,
-                    &annotations(tag.stamp, &record.keypoints),
-                )
-                .and_then(|_| w.flush());
-            if let Err(e) = written {
+            let stamped = annotations(tag.stamp, &record.keypoints);
+            if let Err(e) = w
+                .write(KEYPOINTS_TOPIC, tag.stamp, &stamped)
+                .and_then(|_| w.flush())
+            {
                 fatal = Some(e.into());
                 return;
             }
         }
-        done += 1;
+        outcomes.push(entry(Outcome::Done {
+            width: frame.width,
+            height: frame.height,
+            keypoints: record.keypoints.len(),
+            candidates,
+            backend,
+            ms,
+            damaged: None,
+        }));
     });
     if let Some(e) = stdout_failed.or(fatal) {
         return Err(e);
@@ -186,15 +229,52 @@ pub fn run(cmd: &DetectCmd, path: &Path) -> anyhow::Result<ExitCode> {
     if let Some(w) = mcap {
         w.finish()?;
     }
+    entries.extend(outcomes);
+    Ok((entries, broken))
+}
+
+pub fn run(cmd: &DetectCmd, path: &Path) -> anyhow::Result<ExitCode> {
+    if cmd.csv && cmd.out.is_none() {
+        bail!("a bag with --csv needs --out DIR (one CSV per image message)");
+    }
+    if cmd.draw {
+        bail!("--draw is for image files; open a bag's --mcap annotations in Foxglove instead");
+    }
+    let detector = cmd.detector.detector()?;
+    let (entries, broken) = detect_bag(
+        &detector,
+        &BagRun {
+            path,
+            topic: cmd.image_topic.as_deref(),
+            out: cmd.out.as_deref(),
+            csv: cmd.csv,
+            mcap: cmd.mcap.as_deref(),
+            max_pixels: cmd.detector.max_pixels,
+            skip_done: false,
+        },
+    )?;
+    finish(path, &entries, broken)
+}
+
+/// Reports the counts, then the bag's fault if it had one; the exit code counts failures.
+pub(crate) fn finish(
+    path: &Path,
+    entries: &[Entry],
+    broken: Option<steernav::Error>,
+) -> anyhow::Result<ExitCode> {
+    let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
+    let failed = count(|o| matches!(o, Outcome::Failed(_)));
+    let skipped = count(|o| matches!(o, Outcome::Skipped { .. }));
+    let done = entries.len() - failed;
     eprintln!(
-        "{}: {done} images of {} detected, {failed} failed",
-        bag.path.display(),
-        topic.name
+        "{}: {} images detected, {skipped} skipped (already done; --force redoes them), {failed} failed",
+        path.display(),
+        done - skipped
     );
     if let Some(e) = broken {
         return Err(anyhow::Error::new(e).context(format!(
             "{}: stopped after {done} images; their records are written",
-            bag.path.display()
+            path.display()
         )));
     }
     Ok(if failed > 0 {
