@@ -47,3 +47,12 @@ fn shared_device_runs_detector_and_gist_on_one_device() {
         );
     }
 }
+
+#[test]
+fn bag_slam_tracks_a_recorded_drive() {
+    let (ok, out) = example("bag_slam");
+    assert!(
+        ok && out.contains("recorded") && out.contains("frame 19") && !out.contains("lost"),
+        "{out}"
+    );
+}

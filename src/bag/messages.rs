@@ -49,7 +49,7 @@ pub struct Header {
 }
 
 /// `sensor_msgs/msg/Image`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 pub struct Image {
     /// Stamp and frame.
     pub header: Header,
@@ -69,7 +69,7 @@ pub struct Image {
 }
 
 /// `sensor_msgs/msg/CompressedImage`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 pub struct CompressedImage {
     /// Stamp and frame.
     pub header: Header,
@@ -81,7 +81,7 @@ pub struct CompressedImage {
 }
 
 /// `sensor_msgs/msg/RegionOfInterest`.
-#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Deserialize, Serialize)]
 pub struct RegionOfInterest {
     /// Left column.
     pub x_offset: u32,
@@ -96,7 +96,7 @@ pub struct RegionOfInterest {
 }
 
 /// `sensor_msgs/msg/CameraInfo`.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 pub struct CameraInfo {
     /// Stamp and frame.
     pub header: Header,
@@ -234,6 +234,20 @@ pub struct Odometry {
 /// A fixed-length `float64[N]` (CDR writes no length for it). serde's own arrays stop at 32.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fixed<const N: usize>(pub [f64; N]);
+
+impl<const N: usize> Serialize for Fixed<N> {
+    fn serialize<S: serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = serializer.serialize_tuple(N)?;
+        for v in &self.0 {
+            t.serialize_element(v)?;
+        }
+        t.end()
+    }
+}
 
 impl<'de, const N: usize> Deserialize<'de> for Fixed<N> {
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {

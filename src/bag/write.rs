@@ -43,6 +43,24 @@ fn build(main_body: &str, deps: &[&str]) -> String {
     s
 }
 
+const ROI: &str = "sensor_msgs/RegionOfInterest\nuint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n";
+
+/// The schema of `sensor_msgs/msg/Image`.
+pub fn image_schema() -> String {
+    build(
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\nuint8[] data\n",
+        &[HEADER, TIME],
+    )
+}
+
+/// The schema of `sensor_msgs/msg/CameraInfo`.
+pub fn camera_info_schema() -> String {
+    build(
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\nfloat64[9] r\nfloat64[12] p\nuint32 binning_x\nuint32 binning_y\nRegionOfInterest roi\n",
+        &[HEADER, TIME, ROI],
+    )
+}
+
 /// The schema of `geometry_msgs/msg/PoseStamped`.
 pub fn pose_stamped_schema() -> String {
     build(body(POSE_STAMPED), &[HEADER, TIME, POSE, POINT, QUATERNION])
