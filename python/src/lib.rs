@@ -4,6 +4,7 @@
 //! Built on the library API only (no CLI code), so `Detector(backend="cpu").detect(image)`
 //! gives exactly what `steernav detect --backend cpu` writes for the same pixels.
 
+mod bag;
 mod convert;
 mod detect;
 mod eval;
@@ -47,6 +48,7 @@ fn textured_scene(
 #[pymodule]
 fn steernav(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Detector>()?;
+    m.add_class::<bag::BagReader>()?;
     m.add_class::<Keypoints>()?;
     m.add_class::<Slam>()?;
     m.add_class::<Controller>()?;

@@ -239,3 +239,27 @@ def test_batch_on_a_bag_resumes(cli_exe, sequence, tmp_path):
     p = run(cli_exe, "batch", bag, "--out", out, "--backend", "cpu")
     assert "1 images detected, 59 skipped" in p.stderr
     assert len(list(out.glob("*.json"))) == 60
+
+
+def test_python_reads_a_bag_frame_by_frame(cli_exe, sequence, folder_trajectory, tmp_path):
+    import numpy as np
+    import steernav
+
+    bag = make_bag(sequence, tmp_path / "bag", "--compressed")
+    reader = steernav.BagReader(bag)
+    assert ("/camera/camera_info", "sensor_msgs/msg/CameraInfo") in reader.topics
+    assert reader.image_topic == "/camera/image"
+    camera = reader.camera()
+    assert camera["width"] == 320 and camera["distortion"][0] == -0.05
+    slam = steernav.Slam(**camera, backend="cpu")
+    stamps = []
+    for t, image in reader:
+        assert image.shape == (240, 320, 3) and image.dtype == np.uint8
+        slam.process(image, t)
+        stamps.append(t)
+    assert len(stamps) == 60 and stamps == sorted(stamps)
+    # The same frames and camera as the CLI's folder run: the same last pose.
+    last = [float(v) for v in folder_trajectory.strip().splitlines()[-1].split()]
+    assert np.allclose(slam.trajectory()[-1], last, atol=1e-8)
+    with pytest.raises(ValueError, match="choose one with --image-topic"):
+        steernav.BagReader(make_bag(sequence, tmp_path / "two", "--extra-image-topic"))

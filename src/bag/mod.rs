@@ -306,30 +306,32 @@ impl Bag {
     }
 
     /// Streams the messages of `topics` in file order (within a file, the order they were
-    /// written, which rosbag2 keeps in log-time order).
-    pub fn messages(&self, topics: &[String]) -> impl Iterator<Item = Result<BagMessage>> + '_ {
+    /// written, which rosbag2 keeps in log-time order). The stream owns what it reads, so it
+    /// outlives the `Bag` and can move to another thread.
+    pub fn messages(
+        &self,
+        topics: &[String],
+    ) -> impl Iterator<Item = Result<BagMessage>> + Send + 'static {
         let topics: Vec<String> = topics.to_vec();
-        self.files.iter().flat_map(move |file| {
+        self.files.clone().into_iter().flat_map(move |file| {
             let topics = topics.clone();
-            let reader = match crate::error::open_input(file) {
-                Ok(f) => Ok(mcap::io::MessageReader::new_with_options(
-                    BufReader::new(f),
-                    mcap::sans_io::LinearReaderOptions::default()
-                        .with_record_length_limit(MAX_RECORD),
-                )),
-                Err(e) => Err(e),
-            };
-            let (reader, failed) = match reader {
-                Ok(r) => (Some(r), None),
+            let (reader, failed) = match crate::error::open_input(&file) {
+                Ok(f) => (
+                    Some(mcap::io::MessageReader::new_with_options(
+                        BufReader::new(f),
+                        mcap::sans_io::LinearReaderOptions::default()
+                            .with_record_length_limit(MAX_RECORD),
+                    )),
+                    None,
+                ),
                 Err(e) => (None, Some(Err(e))),
             };
-            let path = file.clone();
             failed.into_iter().chain(
                 reader
                     .into_iter()
                     .flatten()
                     .filter_map(move |m| match m {
-                        Err(e) => Some(Err(mcap_error(&path, e))),
+                        Err(e) => Some(Err(mcap_error(&file, e))),
                         Ok(m) if topics.contains(&m.channel.topic) => Some(Ok(BagMessage {
                             topic: m.channel.topic.clone(),
                             kind: topic_of(&m.channel).kind,
