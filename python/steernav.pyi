@@ -180,3 +180,19 @@ class Matches:
 
 def textured_scene(width: int, height: int, seed: int = 1) -> npt.NDArray[np.uint8]:
     """The seeded procedural scene of the benchmarks and tests, (H, W, 3) RGB."""
+
+class BagReader:
+    """A ROS 2 bag (rosbag2 folder or .mcap file) read frame by frame, streamed."""
+
+    def __init__(
+        self, path: str, image_topic: Optional[str] = None, max_pixels: int = 100_000_000
+    ) -> None: ...
+    topics: List[Tuple[str, str]]
+    """Every topic as (name, message type)."""
+    image_topic: str
+    """The Image or CompressedImage topic read."""
+    def camera(self, camera_info_topic: Optional[str] = None) -> Dict[str, Any]:
+        """The first CameraInfo as `Slam`'s keywords: fx, fy, cx, cy, width, height, distortion."""
+    def __iter__(self) -> "BagReader": ...
+    def __next__(self) -> Tuple[float, npt.NDArray[np.uint8]]:
+        """(header stamp in seconds, (H, W, 3) RGB image)."""
