@@ -263,3 +263,23 @@ def test_python_reads_a_bag_frame_by_frame(cli_exe, sequence, folder_trajectory,
     assert np.allclose(slam.trajectory()[-1], last, atol=1e-8)
     with pytest.raises(ValueError, match="choose one with --image-topic"):
         steernav.BagReader(make_bag(sequence, tmp_path / "two", "--extra-image-topic"))
+
+
+def test_wheel_odometry_from_a_bag_through_tf_static(cli_exe, sequence, tmp_path):
+    """The bag's odometry is of a base_link that /tf_static places away from the camera; put
+    on the camera, it must drive SLAM as the camera's own trajectory does from a file."""
+    bag = make_bag(sequence, tmp_path / "bag", "--odom")
+    gt = sequence / "groundtruth.txt"
+    ros = run(cli_exe, "slam", bag, "--odom-topic", "/odom", "--ground-truth", gt,
+              "--out", tmp_path / "ros", "--backend", "cpu")
+    tum = run(cli_exe, "slam", sequence, "--odometry", gt, "--out", tmp_path / "tum", "--backend", "cpu")
+    rows = lambda d: [[float(v) for v in l.split()] for l in (d / "trajectory.txt").read_text().splitlines()
+                      if not l.startswith("#")]
+    a, b = rows(tmp_path / "ros"), rows(tmp_path / "tum")
+    assert len(a) == len(b) > 50
+    # Equal up to the rounding of the transforms (which the filter then carries along).
+    assert max(abs(x - y) for ra, rb in zip(a[:40], b[:40]) for x, y in zip(ra, rb)) < 1e-6
+    ate = lambda text: float(text.split("ATE ")[1].split(" m")[0])
+    assert abs(ate(ros.stdout) - ate(tum.stdout)) < 0.002
+    p = run(cli_exe, "slam", sequence, "--odom-topic", "/odom", "--out", tmp_path / "x", ok=False)
+    assert p.returncode != 0 and "applies to ROS 2 bags only" in p.stderr

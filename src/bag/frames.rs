@@ -31,6 +31,21 @@ pub fn image_topic(bag: &Bag, chosen: Option<&str>) -> Result<Topic> {
     bag.choose_topic(&[IMAGE, COMPRESSED_IMAGE], chosen, "--image-topic")
 }
 
+/// The coordinate frame of the images on `topic` (the first message's `header.frame_id`).
+pub fn frame_id(bag: &Bag, topic: &str) -> Result<String> {
+    #[derive(serde::Deserialize)]
+    struct Headed {
+        header: super::messages::Header,
+    }
+    let message = bag.messages(&[topic.to_string()]).next().ok_or_else(|| {
+        Error::input(
+            bag.path.display().to_string(),
+            format!("topic {topic} has no message"),
+        )
+    })??;
+    Ok(message.decode::<Headed>(&bag.path)?.header.frame_id)
+}
+
 /// The camera of the first `CameraInfo` message on `chosen` (or on the only such topic).
 pub fn camera(bag: &Bag, chosen: Option<&str>) -> Result<PinholeCamera> {
     let topic = bag.choose_topic(&[CAMERA_INFO], chosen, "--camera-info-topic")?;

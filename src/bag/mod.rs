@@ -11,6 +11,7 @@
 pub mod frames;
 pub mod laser;
 pub mod messages;
+pub mod odometry;
 pub mod write;
 
 use std::io::{BufReader, Read, Seek};

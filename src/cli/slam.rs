@@ -34,6 +34,11 @@ pub struct SlamCmd {
     /// The bag's sensor_msgs/msg/CameraInfo topic, when it has several (--calib overrides it).
     #[arg(long, value_name = "TOPIC")]
     camera_info_topic: Option<String>,
+    /// Use the bag's nav_msgs/msg/Odometry on TOPIC as wheel odometry (as --odometry does a
+    /// file): the base's poses, put on the camera by the bag's /tf_static transforms from
+    /// the odometry's child_frame_id to the images' frame_id.
+    #[arg(long, value_name = "TOPIC", conflicts_with = "odometry")]
+    odom_topic: Option<String>,
     /// Calibration: TOML with a [camera] table (fx, fy, cx, cy, width, height, optional k1,
     /// k2, p1, p2, k3), a EuRoC sensor.yaml or a KITTI calib.txt (row P0). Defaults to the
     /// sequence's own sensor.yaml or calib.txt.
@@ -103,15 +108,23 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let mut config = cmd.detector.config.settings()?.slam;
-    let mut odometry = match &cmd.odometry {
-        Some(path) => {
-            if matches!(config.motion, MotionModel::ConstantVelocity { .. }) {
-                config.motion = MotionModel::odometry();
-            }
-            Some(OdometryTrack::load(path)?)
+    let track = match (&cmd.odometry, &cmd.odom_topic, &input) {
+        (Some(path), _, _) => Some(OdometryTrack::load(path)?),
+        (None, Some(topic), Input::Bag(bag, image)) => {
+            let frame = bag_frames::frame_id(bag, &image.name)?;
+            let poses = steernav::bag::odometry::camera_track(bag, Some(topic), &frame)?;
+            Some(OdometryTrack::new(poses))
         }
-        None => None,
+        (None, Some(_), Input::Folder(_)) => bail!(
+            "{}: --odom-topic applies to ROS 2 bags only (--odometry takes a file)",
+            cmd.sequence.display()
+        ),
+        (None, None, _) => None,
     };
+    if track.is_some() && matches!(config.motion, MotionModel::ConstantVelocity { .. }) {
+        config.motion = MotionModel::odometry();
+    }
+    let mut odometry = track;
     let detector = cmd
         .detector
         .detector_from(steernav::DetectorConfig::tracking())?;
