@@ -1079,3 +1079,47 @@ fn batch_into_its_own_input_and_absurd_frame_rates_are_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("fps"), "{err}");
 }
+
+#[test]
+fn slam_checks_every_output_before_touching_any() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = dir.path().join("room");
+    run_ok(
+        steernav()
+            .args(["slam-synth", "--frames", "12", "--out"])
+            .arg(&seq),
+    );
+    let out = dir.path().join("out");
+    run_ok(
+        steernav()
+            .arg("slam")
+            .arg(&seq)
+            .args(["--backend", "cpu", "--out"])
+            .arg(&out),
+    );
+    let traj = out.join("trajectory.txt");
+    let before = std::fs::read_to_string(&traj).unwrap();
+    let refused = |flag: &str, value: &std::path::Path, says: &str| {
+        let o = steernav()
+            .arg("slam")
+            .arg(&seq)
+            .args(["--backend", "cpu", "--out"])
+            .arg(&out)
+            .arg(flag)
+            .arg(value)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(!o.status.success() && err.contains(says), "{flag}: {err}");
+        // The earlier run's trajectory is untouched.
+        assert_eq!(std::fs::read_to_string(&traj).unwrap(), before);
+    };
+    refused("--report", dir.path(), "--report names a folder");
+    refused("--plot", &dir.path().join("slam.jpg"), "name it .png");
+    refused(
+        "--map",
+        &dir.path().join("nowhere/map.json"),
+        "does not exist",
+    );
+    refused("--mcap", dir.path(), "--mcap names a folder");
+}

@@ -100,6 +100,7 @@ pub enum TrajectoryFormat {
 }
 
 pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
+    check_outputs(&cmd)?;
     let input = Input::open(&cmd)?;
     let camera = input.camera(&cmd)?;
     let truth_path = cmd.ground_truth.clone().or(input.ground_truth());
@@ -539,4 +540,47 @@ fn pose_stamped(r: &FrameReport) -> PoseStamped {
             orientation: [q[1], q[2], q[3], q[0]],
         },
     }
+}
+
+/// Every output is checked before any is touched, so a run refused at the start leaves an
+/// earlier run's results whole, and a bad `--plot` fails now rather than after the run.
+fn check_outputs(cmd: &SlamCmd) -> anyhow::Result<()> {
+    if cmd.out.exists() && !cmd.out.is_dir() {
+        bail!("{}: --out must be a folder", cmd.out.display());
+    }
+    let files = [
+        ("--report", &cmd.report),
+        ("--map", &cmd.map),
+        ("--plot", &cmd.plot),
+        ("--mcap", &cmd.mcap),
+    ];
+    for (flag, path) in files {
+        let Some(path) = path else { continue };
+        if path.is_dir() {
+            bail!("{}: {flag} names a folder; give a file", path.display());
+        }
+        // The run creates --out, so a file inside it is fine.
+        let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+        if let Some(parent) = parent {
+            if !parent.is_dir() && parent != cmd.out {
+                bail!(
+                    "{}: {flag}: the folder {} does not exist",
+                    path.display(),
+                    parent.display()
+                );
+            }
+        }
+        if path == &cmd.out.join("trajectory.txt") {
+            bail!("{}: {flag} would overwrite the trajectory", path.display());
+        }
+    }
+    if let Some(plot) = &cmd.plot {
+        if !plot
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        {
+            bail!("{}: --plot writes a PNG; name it .png", plot.display());
+        }
+    }
+    Ok(())
 }
