@@ -1123,3 +1123,28 @@ fn slam_checks_every_output_before_touching_any() {
     );
     refused("--mcap", dir.path(), "--mcap names a folder");
 }
+
+#[test]
+fn match_says_when_verification_is_impossible() {
+    let a = sample();
+    let out = steernav()
+        .arg("match")
+        .arg(&a)
+        .arg(&a)
+        .args([
+            "--max-keypoints",
+            "6",
+            "--verify",
+            "fundamental",
+            "--backend",
+            "cpu",
+        ])
+        .output()
+        .unwrap();
+    assert_ok(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("fundamental verification impossible") && err.contains("needs 8"),
+        "{err}"
+    );
+}

@@ -110,6 +110,9 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
     let (f2, d2) = load(&cmd.second)?;
     let Matched { matches, verified } = settings.run(&d1.keypoints, &d2.keypoints)?;
     let inliers = verified.inliers.iter().filter(|&&b| b).count();
+    if let Some(why) = cmd.verify.failure(matches.len(), verified.model.as_ref()) {
+        eprintln!("warning: {why}");
+    }
     let rows: Vec<MatchRow> = matches
         .iter()
         .zip(&verified.inliers)

@@ -79,6 +79,41 @@ pub enum Verification {
 
 named_variants!(Verification { Homography => "homography", Fundamental => "fundamental", None => "none" });
 
+impl Verification {
+    /// Correspondences one model needs: 4 for a homography, 8 for a fundamental matrix.
+    pub fn sample_size(self) -> usize {
+        match self {
+            Verification::Homography => 4,
+            Verification::Fundamental => 8,
+            Verification::None => 0,
+        }
+    }
+
+    /// Why no model came out of `matches` correspondences, when none did: too few to fit
+    /// one, or none that RANSAC could agree on.
+    pub fn failure(self, matches: usize, model: Option<&[f64; 9]>) -> Option<String> {
+        if self == Verification::None || model.is_some() {
+            return None;
+        }
+        let need = self.sample_size();
+        let model_name = match self {
+            Verification::Fundamental => "a fundamental matrix",
+            _ => "a homography",
+        };
+        Some(if matches < need {
+            format!(
+                "{} verification impossible: {matches} matches, {model_name} needs {need}; every match is counted an outlier",
+                self.as_str()
+            )
+        } else {
+            format!(
+                "{} verification found no model among {matches} matches; every match is counted an outlier",
+                self.as_str()
+            )
+        })
+    }
+}
+
 /// The outcome of RANSAC: the model (row-major 3×3) refitted on its inliers, and which
 /// correspondences are inliers.
 #[derive(Clone, Debug, PartialEq)]
@@ -211,8 +246,8 @@ pub fn verify(
                 inliers: vec![true; pairs.len()],
             }
         }
-        Verification::Homography => (4, fit_homography, homography_error),
-        Verification::Fundamental => (8, fit_fundamental, sampson_error),
+        Verification::Homography => (model.sample_size(), fit_homography, homography_error),
+        Verification::Fundamental => (model.sample_size(), fit_fundamental, sampson_error),
     };
     let none = Verified {
         model: None,
