@@ -25,6 +25,11 @@ pub struct BagReader {
 
 #[pymethods]
 impl BagReader {
+    /// Refused: an open file and a position in its message stream.
+    fn __reduce__(&self) -> PyResult<()> {
+        Err(crate::convert::unpicklable("BagReader", "it is an open file and a position in its message stream; pass the bag's path to the worker and open it there"))
+    }
+
     /// `BagReader(path, image_topic=None, max_pixels=100_000_000)`: the bag and its image
     /// topic (the only Image or CompressedImage topic unless named).
     #[new]

@@ -62,6 +62,48 @@ pub(crate) fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::
     )))
 }
 
+/// The `TypeError` of an object that refuses to be pickled, saying why and what to do.
+pub(crate) fn unpicklable(class: &str, why: &str) -> PyErr {
+    PyTypeError::new_err(format!("cannot pickle 'steernav.{class}': {why}"))
+}
+
+/// A TOML table as a Python dict (the inverse of [`kwargs_table`]).
+pub(crate) fn table_dict<'py>(
+    py: Python<'py>,
+    table: &toml::Table,
+) -> PyResult<Bound<'py, PyDict>> {
+    let dict = PyDict::new(py);
+    for (key, value) in table {
+        dict.set_item(key, py_value(py, value)?)?;
+    }
+    Ok(dict)
+}
+
+fn py_value<'py>(py: Python<'py>, value: &toml::Value) -> PyResult<Bound<'py, PyAny>> {
+    use toml::Value as V;
+    Ok(match value {
+        V::Boolean(b) => b.into_pyobject(py)?.to_owned().into_any(),
+        V::Integer(i) => i.into_pyobject(py)?.into_any(),
+        // Settings are f32: one that is exactly an f32 shows as that f32's shortest decimal
+        // (0.04, not 0.03999999910593033), which reads back as the same f32.
+        V::Float(f) if (*f as f32) as f64 == *f && f.is_finite() => {
+            let shortest: f64 = (*f as f32).to_string().parse().unwrap_or(*f);
+            shortest.into_pyobject(py)?.into_any()
+        }
+        V::Float(f) => f.into_pyobject(py)?.into_any(),
+        V::String(s) => s.into_pyobject(py)?.into_any(),
+        V::Datetime(d) => d.to_string().into_pyobject(py)?.into_any(),
+        V::Array(items) => {
+            let list = PyList::empty(py);
+            for item in items {
+                list.append(py_value(py, item)?)?;
+            }
+            list.into_any()
+        }
+        V::Table(t) => table_dict(py, t)?.into_any(),
+    })
+}
+
 /// A config type from keyword arguments; errors name the key.
 pub(crate) fn config_from<T: serde::de::DeserializeOwned>(
     what: &str,

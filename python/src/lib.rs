@@ -46,7 +46,7 @@ fn textured_scene(
 /// steernav: rotation-invariant keypoints, GIST, monocular EKF SLAM and a neural-field
 /// navigation controller, with numpy arrays in and out.
 #[pymodule]
-fn steernav(m: &Bound<'_, PyModule>) -> PyResult<()> {
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Detector>()?;
     m.add_class::<bag::BagReader>()?;
     m.add_class::<Keypoints>()?;

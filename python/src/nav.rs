@@ -22,6 +22,12 @@ pub(crate) struct Controller {
 
 #[pymethods]
 impl Controller {
+    /// Refused: the field's activation is live state tied to the scans so far;
+    /// each worker builds its own `Controller`.
+    fn __reduce__(&self) -> PyResult<()> {
+        Err(crate::convert::unpicklable("Controller", "its neural field holds activation from the scans fed so far (and, in fusion mode, a GIST engine); build one Controller per worker from the same mode and settings instead"))
+    }
+
     /// `Controller(mode="laser", backend="auto", **controller_settings)`: the keys of the
     /// `[nav.controller]` table (field, stimulus, camera, visual, turn_gain…); in fusion mode
     /// the camera's GIST runs on `backend`.

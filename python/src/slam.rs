@@ -24,6 +24,12 @@ pub(crate) struct Slam {
 
 #[pymethods]
 impl Slam {
+    /// Refused: a running filter (state, covariance, map, templates) is not a
+    /// value to ship; each worker builds its own `Slam` from the camera and settings.
+    fn __reduce__(&self) -> PyResult<()> {
+        Err(crate::convert::unpicklable("Slam", "it holds a running filter (state, covariance, landmark map, templates) that only makes sense in the process feeding it frames; build one Slam per worker from the same camera and settings instead"))
+    }
+
     /// `Slam(fx, fy, cx, cy, width, height, distortion=None, backend="auto", detector=None,
     /// **slam_settings)`; `distortion` is (k1, k2, p1, p2, k3) or shorter; `detector` a dict of
     /// `[detector]` keys applied over the tracking preset; the keyword arguments are the

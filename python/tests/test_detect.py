@@ -58,3 +58,50 @@ def test_bad_input_raises_clear_exceptions(sample):
         det.detect(nan)
     with pytest.raises(TypeError):
         det.detect("not an array")
+
+
+def test_detector_and_keypoints_pickle(sample):
+    import pickle
+
+    det = steernav.Detector(backend="cpu", orientations=8, max_keypoints=150, harris_k=0.05)
+    copy = pickle.loads(pickle.dumps(det))
+    assert copy.settings == det.settings
+    assert copy.settings["orientations"] == 8 and copy.settings["harris_k"] == 0.05
+    ours, theirs = det.detect(sample), copy.detect(sample)
+    assert len(ours) == len(theirs) > 50
+    for name in ("xy", "scale", "angle", "response", "descriptor"):
+        assert np.array_equal(getattr(ours, name), getattr(theirs, name)), name
+    # Settings round-trip through the constructor too: the same detector again.
+    again = steernav.Detector("cpu", **det.settings).detect(sample)
+    assert np.array_equal(again.xy, ours.xy)
+    kp = pickle.loads(pickle.dumps(ours))
+    assert len(kp) == len(ours) and kp.backend == "cpu" and kp.descriptor_kind == "steered"
+    assert np.array_equal(kp.descriptor, ours.descriptor) and np.array_equal(kp.xy, ours.xy)
+    with pytest.raises(ValueError, match="scale: 3 rows for 150"):
+        steernav.Keypoints(ours.xy, ours.scale[:3], ours.angle, ours.response, ours.descriptor)
+    with pytest.raises(ValueError, match="backend"):
+        steernav.Keypoints(
+            ours.xy, ours.scale, ours.angle, ours.response, ours.descriptor, backend="tpu"
+        )
+
+
+def test_detect_batch_takes_encoded_files_and_keeps_going(sample):
+    import io
+
+    from PIL import Image
+
+    det = steernav.Detector(backend="cpu", max_keypoints=200)
+    png = io.BytesIO()
+    Image.fromarray(sample).save(png, format="PNG")
+    items = [sample, png.getvalue(), b"not an image", sample.astype(np.float64), sample[:100]]
+    found = det.detect_batch(items, return_exceptions=True, names=list("abcde"))
+    one = det.detect(sample)
+    assert np.array_equal(found[0].xy, one.xy) and np.array_equal(found[1].xy, one.xy)
+    assert isinstance(found[2], ValueError) and str(found[2]).startswith("c: ")
+    assert isinstance(found[3], TypeError) and "uint8 or float32" in str(found[3])
+    assert len(found[4]) == len(det.detect(sample[:100]))
+    # Without return_exceptions the first failure is raised, of its own type, named.
+    with pytest.raises(ValueError, match="^image 2: "):
+        det.detect_batch(items)
+    with pytest.raises(ValueError, match="names: 1 names for 5 images"):
+        det.detect_batch(items, names=["x"])

@@ -37,3 +37,10 @@ def test_fusion_controller_needs_and_uses_the_camera(sample):
     laser = steernav.Controller()
     with pytest.raises(ValueError, match="laser-mode"):
         laser.step(ranges, -np.pi / 2, np.pi / 180, (0.0, 0.0, 0.0), (5.0, 0.0), 8.0, image=sample)
+
+
+def test_controller_refuses_pickling_saying_why():
+    import pickle
+
+    with pytest.raises(TypeError, match="cannot pickle 'steernav.Controller': its neural field"):
+        pickle.dumps(steernav.Controller())

@@ -44,3 +44,11 @@ def test_slam_takes_detector_and_nested_slam_settings(sample):
         steernav.Slam(500.0, 500.0, w / 2, h / 2, w, h, detector={"orientationz": 3})
     with pytest.raises(ValueError, match="max_landmarks"):
         steernav.Slam(500.0, 500.0, w / 2, h / 2, w, h, map={"max_landmarks": 5, "target_visible": 20})
+
+
+def test_slam_refuses_pickling_saying_why():
+    import pickle
+
+    slam = steernav.Slam(500.0, 500.0, 320, 240, 640, 480, backend="cpu")
+    with pytest.raises(TypeError, match="cannot pickle 'steernav.Slam': it holds a running filter"):
+        pickle.dumps(slam)

@@ -30,6 +30,18 @@ class Keypoints:
     """"steered" or "entropy"."""
     backend: str
     """"cpu" or "gpu": where the detection ran."""
+    def __init__(
+        self,
+        xy: npt.NDArray[np.float32],
+        scale: npt.NDArray[np.float32],
+        angle: npt.NDArray[np.float32],
+        response: npt.NDArray[np.float32],
+        descriptor: npt.NDArray[np.float32],
+        descriptor_kind: str = "steered",
+        backend: str = "cpu",
+    ) -> None:
+        """Keypoints from their arrays (read back from Parquet, say), checked to pair up and
+        copied. Keypoints pickle as these arrays."""
     def __len__(self) -> int: ...
     def to_cv(self) -> List[Any]:
         """OpenCV cv2.KeyPoint list: size = 6·σ_D (the drawn circle's diameter), angle in
@@ -43,10 +55,24 @@ class Detector:
     ValueError naming it."""
 
     backend: str
+    """"cpu" or "gpu": where frames go."""
+    settings: Dict[str, Any]
+    """Every setting, defaults included: Detector(d.backend, **d.settings) is the same
+    detector. A Detector pickles as the backend asked for and these settings; the copy builds
+    its own GPU context where it is unpickled."""
     def __init__(self, backend: str = "auto", **settings: Any) -> None: ...
     def detect(self, image: Image) -> Keypoints: ...
-    def detect_batch(self, images: Iterable[Image]) -> List[Keypoints]:
-        """One after another, each on every CPU core (or on the GPU), the GIL released."""
+    def detect_batch(
+        self,
+        images: Iterable[Union[Image, bytes]],
+        return_exceptions: bool = False,
+        names: Optional[Sequence[str]] = None,
+    ) -> List[Union[Keypoints, Exception]]:
+        """In order, through the library's stream: two frames in flight on a GPU, as many at
+        once as there are cores on the CPU, the GIL released. An item is an image array or the
+        bytes of an encoded file (decoded as the CLI decodes it). With return_exceptions=True a
+        failing image gives its exception in its place; otherwise the first failure is raised.
+        Errors name the item by names[i], or as "image i"."""
 
 def gist(
     images: Union[Image, Sequence[Image]], backend: str = "auto", **settings: Any
@@ -55,7 +81,8 @@ def gist(
     [gist] table's keys."""
 
 class Slam:
-    """Monocular EKF SLAM with inverse-depth landmarks, one frame at a time."""
+    """Monocular EKF SLAM with inverse-depth landmarks, one frame at a time. Not picklable
+    (a running filter): pickle.dumps raises TypeError; build one per worker."""
 
     def __init__(
         self,
@@ -104,7 +131,8 @@ class Controller:
     """The neural-field navigation controller; keyword arguments are the [nav.controller]
     table's keys (field, stimulus, camera, visual, field_steps, turn_gain, max_turn_rate,
     rear_inhibition). mode is "laser" or "fusion" (LIDAR plus the camera's GIST, computed on
-    backend)."""
+    backend). Not picklable (live field state):
+    pickle.dumps raises TypeError; build one per worker."""
 
     field: npt.NDArray[np.float32]
     """(N,): the field's activations over world headings 2πi/N after the last step."""
@@ -182,7 +210,8 @@ def textured_scene(width: int, height: int, seed: int = 1) -> npt.NDArray[np.uin
     """The seeded procedural scene of the benchmarks and tests, (H, W, 3) RGB."""
 
 class BagReader:
-    """A ROS 2 bag (rosbag2 folder or .mcap file) read frame by frame, streamed."""
+    """A ROS 2 bag (rosbag2 folder or .mcap file) read frame by frame, streamed. Not
+    picklable (an open file): pass the path to a worker instead."""
 
     def __init__(
         self, path: str, image_topic: Optional[str] = None, max_pixels: int = 100_000_000
