@@ -81,6 +81,7 @@ pub mod image;
 mod moved;
 pub mod rng;
 pub mod settings;
+pub mod shard;
 pub(crate) mod simd;
 
 pub use error::{Error, Result};

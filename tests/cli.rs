@@ -3,6 +3,7 @@
 
 mod common;
 
+use std::path::Path;
 use std::process::Command;
 
 use common::{assert_ok, run_ok, sample, steernav};
@@ -1147,4 +1148,136 @@ fn match_says_when_verification_is_impossible() {
         err.contains("fundamental verification impossible") && err.contains("needs 8"),
         "{err}"
     );
+}
+
+/// The images of each row of a batch summary, with their status.
+fn summary_rows(out: &Path) -> Vec<(String, String)> {
+    let text = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let mut cols = l.split(',');
+            let image = cols.next().unwrap();
+            let name = Path::new(image).file_name().unwrap().to_string_lossy();
+            (name.into_owned(), cols.next().unwrap().to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn batch_shards_split_a_tree_alone_and_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    std::fs::create_dir_all(input.join("sub")).unwrap();
+    let base = image::open(sample()).unwrap();
+    let mut names = Vec::new();
+    for i in 0..12u32 {
+        let name = if i % 3 == 0 {
+            format!("sub/p{i}.png")
+        } else {
+            format!("p{i}.png")
+        };
+        base.crop_imm(20 * i, 10 * i, 120, 90)
+            .save(input.join(&name))
+            .unwrap();
+        names.push(
+            Path::new(&name)
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .into_owned(),
+        );
+    }
+    names.sort();
+    let shard = |k: u32, out: &Path| {
+        let mut cmd = steernav();
+        cmd.args(["batch", "--backend", "cpu", "--max-keypoints", "30"])
+            .arg(&input)
+            .arg("--out")
+            .arg(out)
+            .arg("--shard")
+            .arg(format!("{k}/2"));
+        cmd
+    };
+    let detected = |out: &std::process::Output| -> usize {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let n = stderr
+            .split(" detected")
+            .next()
+            .unwrap()
+            .rsplit(' ')
+            .next()
+            .unwrap();
+        n.trim().parse().unwrap_or_else(|_| panic!("{stderr}"))
+    };
+    // Alone, one after the other: each takes its share, the summary grows to the whole tree.
+    let alone = dir.path().join("alone");
+    let first = run_ok(&mut shard(0, &alone));
+    let after_first = summary_rows(&alone);
+    assert_eq!(after_first.len(), detected(&first));
+    assert!(0 < after_first.len() && after_first.len() < names.len());
+    let second = run_ok(&mut shard(1, &alone));
+    assert_eq!(detected(&first) + detected(&second), names.len());
+    let rows = summary_rows(&alone);
+    let mut seen: Vec<String> = rows.iter().map(|(n, _)| n.clone()).collect();
+    seen.sort();
+    assert_eq!(seen, names, "one row per image, no overlap, no gap");
+    assert!(rows.iter().all(|(_, status)| status == "done"), "{rows:?}");
+    // A re-run of one shard redoes nothing and keeps the other shard's rows.
+    let again = run_ok(&mut shard(0, &alone));
+    assert_eq!(detected(&again), 0);
+    assert_eq!(summary_rows(&alone).len(), names.len());
+    // At once, into one folder: the same split, every image once.
+    let together = dir.path().join("together");
+    let children: Vec<_> = (0..2)
+        .map(|k| {
+            shard(k, &together)
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        })
+        .collect();
+    let outputs: Vec<_> = children
+        .into_iter()
+        .map(|c| c.wait_with_output().unwrap())
+        .collect();
+    for out in &outputs {
+        assert_ok(out);
+    }
+    assert_eq!(outputs.iter().map(detected).sum::<usize>(), names.len());
+    let mut seen: Vec<String> = summary_rows(&together)
+        .into_iter()
+        .map(|(n, _)| n)
+        .collect();
+    seen.sort();
+    assert_eq!(seen, names);
+    for name in ["p1.png", "sub/p3.png"] {
+        let a = std::fs::read_to_string(alone.join(format!("{name}.json"))).unwrap();
+        let b = std::fs::read_to_string(together.join(format!("{name}.json"))).unwrap();
+        let points =
+            |t: &str| serde_json::from_str::<serde_json::Value>(t).unwrap()["keypoints"].clone();
+        assert_eq!(points(&a), points(&b), "{name}");
+    }
+    // A whole-tree batch in the folder keeps the shards out, and a shard keeps it out.
+    let lock = std::fs::File::create(alone.join(".steernav-batch.lock")).unwrap();
+    lock.lock().unwrap();
+    let refused = shard(1, &alone).output().unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("whole tree"));
+    drop(lock);
+    for bad in ["2/2", "x/2", "1"] {
+        let out = steernav()
+            .args(["batch"])
+            .arg(&input)
+            .arg("--out")
+            .arg(&alone)
+            .args(["--shard", bad])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains("K/N"),
+            "{bad}"
+        );
+    }
 }

@@ -57,6 +57,7 @@ fn imports_run_downward_only() {
         ("rng", &[]),
         ("simd", &[]),
         ("moved", &[]),
+        ("shard", &["error"]),
         ("image", &["error"]),
         ("plot", &["error"]),
         ("gpu", &["error"]),

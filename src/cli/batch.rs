@@ -11,6 +11,7 @@ use steernav::error::{Error, Result};
 use steernav::features::Detector;
 use steernav::image::Frame;
 use steernav::output::{write_atomic, ImageKeypoints};
+use steernav::shard::Shard;
 
 use clap::Args;
 
@@ -131,6 +132,8 @@ pub struct BatchOptions {
     pub progress: bool,
     /// Largest image accepted, pixels (see [`steernav::image::DEFAULT_MAX_PIXELS`]).
     pub max_pixels: u64,
+    /// Only the images of this shard of the tree (a job array's share).
+    pub shard: Option<Shard>,
 }
 
 fn output_path(opts: &BatchOptions, image: &Path) -> PathBuf {
@@ -143,30 +146,15 @@ fn output_path(opts: &BatchOptions, image: &Path) -> PathBuf {
 /// Runs the batch; returns every entry (in input order). Failures of single images are in the
 /// entries, not errors; an error means the batch itself could not run (e.g. no input dir).
 pub fn run_tree(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> {
-    let images = list_images(&opts.input, &opts.output)?;
+    let mut images = list_images(&opts.input, &opts.output)?;
+    if let Some(shard) = opts.shard {
+        images.retain(|image| shard.contains(image.strip_prefix(&opts.input).unwrap_or(image)));
+    }
     std::fs::create_dir_all(&opts.output).map_err(|source| Error::Io {
         path: opts.output.clone(),
         source,
     })?;
-    // One batch per output folder at a time: a second one would redo every image the first
-    // has not finished. The lock is the kernel's, so a killed batch releases it.
-    let lock_path = opts.output.join(".steernav-batch.lock");
-    let lock = std::fs::File::create(&lock_path).map_err(|source| Error::Io {
-        path: lock_path.clone(),
-        source,
-    })?;
-    if let Err(e) = lock.try_lock() {
-        return Err(Error::Io {
-            path: opts.output.clone(),
-            source: match e {
-                std::fs::TryLockError::WouldBlock => std::io::Error::new(
-                    std::io::ErrorKind::WouldBlock,
-                    "another steernav batch is writing into this folder",
-                ),
-                std::fs::TryLockError::Error(io) => io,
-            },
-        });
-    }
+    let _locks = lock_output(opts)?;
     let bar = if opts.progress {
         indicatif::ProgressBar::new(images.len() as u64)
     } else {
@@ -246,11 +234,103 @@ pub fn run_tree(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> 
         .into_iter()
         .map(|e| e.expect("every image has an entry"))
         .collect();
-    write_atomic(
-        &opts.output.join("summary.csv"),
-        summary_csv(&entries).as_bytes(),
-    )?;
+    match opts.shard {
+        None => write_atomic(
+            &opts.output.join("summary.csv"),
+            summary_csv(&entries).as_bytes(),
+        )?,
+        Some(shard) => merge_summary(opts, shard, &entries)?,
+    }
     Ok(entries)
+}
+
+/// The kernel's locks that keep two batches from redoing each other's work in one output
+/// folder (a killed batch releases them): a whole-tree batch holds the folder's lock alone;
+/// a shard shares it with the other shards and holds its own shard's lock alone, so the
+/// shards of a job array write into one folder at once, but never beside a whole-tree batch
+/// or a second copy of the same shard.
+fn lock_output(opts: &BatchOptions) -> Result<Vec<std::fs::File>> {
+    let open = |name: String| {
+        let path = opts.output.join(name);
+        std::fs::File::create(&path).map_err(|source| Error::Io { path, source })
+    };
+    let refused = |e: std::fs::TryLockError, who: &str| Error::Io {
+        path: opts.output.clone(),
+        source: match e {
+            std::fs::TryLockError::WouldBlock => std::io::Error::new(
+                std::io::ErrorKind::WouldBlock,
+                format!("{who} is writing into this folder"),
+            ),
+            std::fs::TryLockError::Error(io) => io,
+        },
+    };
+    let folder = open(".steernav-batch.lock".into())?;
+    let Some(shard) = opts.shard else {
+        folder
+            .try_lock()
+            .map_err(|e| refused(e, "another steernav batch"))?;
+        return Ok(vec![folder]);
+    };
+    folder
+        .try_lock_shared()
+        .map_err(|e| refused(e, "a steernav batch of the whole tree (no --shard)"))?;
+    let own = open(format!(
+        ".steernav-batch-{}-of-{}.lock",
+        shard.index, shard.count
+    ))?;
+    own.try_lock()
+        .map_err(|e| refused(e, &format!("another steernav batch of shard {shard}")))?;
+    Ok(vec![folder, own])
+}
+
+/// A shard's rows merged into the folder's `summary.csv` under a lock the shards take in
+/// turn: the rows of the images in this shard are replaced by this run's, every other row is
+/// kept, so once every shard has run the summary holds one row per image of the tree,
+/// whatever order the shards finished in.
+fn merge_summary(opts: &BatchOptions, shard: Shard, entries: &[Entry]) -> Result<()> {
+    let summary = opts.output.join("summary.csv");
+    let lock_path = opts.output.join(".steernav-summary.lock");
+    let lock = std::fs::File::create(&lock_path).map_err(|source| Error::Io {
+        path: lock_path.clone(),
+        source,
+    })?;
+    lock.lock().map_err(|source| Error::Io {
+        path: lock_path,
+        source,
+    })?;
+    let mut rows: Vec<csv::StringRecord> = Vec::new();
+    if let Ok(text) = std::fs::read_to_string(&summary) {
+        for record in csv::Reader::from_reader(text.as_bytes()).records() {
+            let record = record.map_err(|e| summary_error(&summary, e))?;
+            let image = Path::new(record.get(0).unwrap_or_default());
+            // This run has the rows of its own shard; the other shards' rows stay.
+            if !shard.contains(image.strip_prefix(&opts.input).unwrap_or(image)) {
+                rows.push(record);
+            }
+        }
+    }
+    let ours = summary_csv(entries);
+    let mut reader = csv::Reader::from_reader(ours.as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| summary_error(&summary, e))?
+        .clone();
+    for record in reader.records() {
+        rows.push(record.map_err(|e| summary_error(&summary, e))?);
+    }
+    rows.sort_by(|a, b| a.get(0).cmp(&b.get(0)));
+    let text = steernav::output::csv_text(
+        std::iter::once(header.iter().map(String::from).collect::<Vec<_>>())
+            .chain(rows.iter().map(|r| r.iter().map(String::from).collect())),
+    );
+    write_atomic(&summary, text.as_bytes())
+}
+
+fn summary_error(summary: &Path, e: csv::Error) -> Error {
+    Error::Parse {
+        path: summary.to_path_buf(),
+        reason: format!("cannot merge this shard's rows into it: {e}"),
+    }
 }
 
 /// The figures of an earlier run's JSON, so a re-run's summary keeps its rows whole.
@@ -393,6 +473,14 @@ pub struct BatchCmd {
     /// Also write a PNG with the keypoints next to each JSON.
     #[arg(long)]
     draw: bool,
+    /// Process only shard K of N (0 ≤ K < N) of the tree: the images whose path relative to
+    /// the input hashes to K (FNV-1a, the same on every machine). The N jobs of a job array
+    /// (`--shard $SLURM_ARRAY_TASK_ID/N`) given the same tree split it with no overlap and no
+    /// gap, and a re-run of one shard redoes nothing. Shards may share one --out at the same
+    /// time: each merges its rows into summary.csv under a lock when it ends, so after the
+    /// last one the summary has one row per image of the tree.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<Shard>,
 }
 
 pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
@@ -401,6 +489,12 @@ pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
         if cmd.draw {
             anyhow::bail!(
                 "--draw is for image files; open a bag's --mcap annotations in Foxglove instead"
+            );
+        }
+        if cmd.shard.is_some() {
+            anyhow::bail!(
+                "--shard splits a directory of images; a bag is read in one pass (split it into \
+                 several bags, one per job, with `ros2 bag convert` or by time range)"
             );
         }
         std::fs::create_dir_all(&cmd.out)
@@ -433,6 +527,7 @@ pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
         draw: cmd.draw,
         progress: true,
         max_pixels: cmd.detector.max_pixels,
+        shard: cmd.shard,
     };
     let entries = run_tree(&detector, &opts)?;
     let count = |f: fn(&Outcome) -> bool| entries.iter().filter(|e| f(&e.outcome)).count();
@@ -448,8 +543,9 @@ pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
     });
     let skipped = count(|o| matches!(o, Outcome::Skipped { .. }));
     let failed = count(|o| matches!(o, Outcome::Failed(_)));
+    let share = opts.shard.map_or_else(String::new, |s| format!("shard {s}: "));
     eprintln!(
-        "{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed{}; summary in {}",
+        "{share}{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed{}; summary in {}",
         if damaged > 0 {
             format!(", {damaged} damaged (detected on a truncated file)")
         } else {

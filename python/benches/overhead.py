@@ -1,6 +1,6 @@
 """The cost of the Python layer, measured against the Rust benchmark in the same run.
 
-    python python/bench.py            (after `pip install ./python` and `cargo build --release`)
+    python python/benches/overhead.py            (after `pip install ./python` and `cargo build --release`)
 
 1. detect at 640×480 on the CPU: the median of `Detector.detect` against the median "end to
    end" of `steernav bench --backend cpu --sizes 640x480` on the same generated scene. The
@@ -22,7 +22,7 @@ import numpy as np
 
 import steernav
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 EXE = os.environ.get("STEERNAV_BIN", str(ROOT / "target" / "release" / "steernav"))
 RUNS = 21
 
