@@ -543,7 +543,9 @@ pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
     });
     let skipped = count(|o| matches!(o, Outcome::Skipped { .. }));
     let failed = count(|o| matches!(o, Outcome::Failed(_)));
-    let share = opts.shard.map_or_else(String::new, |s| format!("shard {s}: "));
+    let share = opts
+        .shard
+        .map_or_else(String::new, |s| format!("shard {s}: "));
     eprintln!(
         "{share}{done} detected, {skipped} skipped (already done; --force redoes them), {failed} failed{}; summary in {}",
         if damaged > 0 {
