@@ -1215,7 +1215,7 @@ fn batch_shards_split_a_tree_alone_and_at_once() {
     let first = run_ok(&mut shard(0, &alone));
     let after_first = summary_rows(&alone);
     assert_eq!(after_first.len(), detected(&first));
-    assert!(0 < after_first.len() && after_first.len() < names.len());
+    assert!(!after_first.is_empty() && after_first.len() < names.len());
     let second = run_ok(&mut shard(1, &alone));
     assert_eq!(detected(&first) + detected(&second), names.len());
     let rows = summary_rows(&alone);
