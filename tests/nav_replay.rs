@@ -2,11 +2,21 @@
 //! pick free headings that follow the motion; gzip and malformed lines are handled.
 
 use std::io::Write;
+use std::path::Path;
 mod common;
 
 use common::{run_ok, steernav};
 use steernav::nav::carmen::{parse, read_log};
 use steernav::nav::replay::{replay, ReplayConfig};
+
+/// The range from (x, 0) along bearing `b` to the walls at y = ±1 (30 m at most).
+fn corridor_range(b: f64) -> f64 {
+    if b.sin().abs() < 1e-6 {
+        30.0
+    } else {
+        (1.0 / b.sin().abs()).min(30.0)
+    }
+}
 
 /// FLASER lines of a robot at (0.1·k, 0) heading along x between walls at y = ±1.
 fn corridor_log() -> String {
@@ -18,12 +28,7 @@ fn corridor_log() -> String {
             .map(|i| {
                 let b =
                     -std::f64::consts::FRAC_PI_2 + i as f64 * std::f64::consts::PI / (n - 1) as f64;
-                let r = if b.sin().abs() < 1e-6 {
-                    30.0
-                } else {
-                    (1.0 / b.sin().abs()).min(30.0)
-                };
-                format!("{r:.3}")
+                format!("{:.3}", corridor_range(b))
             })
             .collect();
         s.push_str(&format!("ODOM {x} 0 0 0 0 0 {t} test {t}\n"));
@@ -64,7 +69,23 @@ fn gzipped_logs_and_the_cli_json() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let mut keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
     keys.sort_unstable();
-    assert_eq!(keys, ["free_fraction", "mean_abs_deviation_deg", "scans"]);
+    assert_eq!(
+        keys,
+        [
+            "forward",
+            "forward_free_fraction",
+            "free_fraction",
+            "mean_abs_deviation_deg",
+            "motion",
+            "reference",
+            "reference_missing",
+            "scans"
+        ]
+    );
+    // Down a straight corridor every scan drives forward, and the real motion is free.
+    assert_eq!(v["motion"]["forward"], v["scans"]);
+    assert_eq!(v["reference"]["mean_deg"], 0.0);
+    assert_eq!(v["reference_missing"], 0);
 }
 
 #[test]
@@ -105,4 +126,113 @@ fn a_log_without_motion_and_out_of_range_settings_are_refused() {
     };
     let message = replay(&scans, &negative).unwrap_err().to_string();
     assert!(message.contains("free_halfwidth_deg"), "{message}");
+}
+
+/// ROBOTLASER1 lines of the same corridor drive, seen by a scanner of `fov_deg` degrees.
+fn robotlaser_log(fov_deg: f64, beams: usize) -> String {
+    let fov = fov_deg.to_radians();
+    let full = fov_deg >= 360.0;
+    let resolution = if full {
+        fov / beams as f64
+    } else {
+        fov / (beams - 1) as f64
+    };
+    let start = -0.5 * fov;
+    let mut s = String::new();
+    for k in 0..120 {
+        let (x, t) = (0.1 * k as f64, 0.1 * k as f64);
+        let ranges: Vec<String> = (0..beams)
+            .map(|i| format!("{:.3}", corridor_range(start + i as f64 * resolution)))
+            .collect();
+        s.push_str(&format!(
+            "ROBOTLASER1 0 {start} {fov} {resolution} 30.0 0.01 0 {beams} {} 0 {x} 0 0 {x} 0 0 0 0 0 0 0 {t} test {t}\n",
+            ranges.join(" ")
+        ));
+    }
+    s
+}
+
+#[test]
+fn scanners_of_270_and_360_degrees_replay_like_the_180_degree_one() {
+    for (fov, beams) in [(270.0, 541), (360.0, 720), (180.0, 361)] {
+        let log = robotlaser_log(fov, beams);
+        let scans = parse(Path::new("robotlaser.log"), log.as_bytes()).unwrap();
+        assert_eq!(scans.len(), 120);
+        assert_eq!(scans[0].ranges.len(), beams);
+        let span = scans[0]
+            .bearings
+            .iter()
+            .copied()
+            .fold(f32::NEG_INFINITY, f32::max)
+            - scans[0]
+                .bearings
+                .iter()
+                .copied()
+                .fold(f32::INFINITY, f32::min);
+        assert!(
+            span.to_degrees() > fov as f32 - 1.5,
+            "{fov}: {}",
+            span.to_degrees()
+        );
+        let r = replay(&scans, &ReplayConfig::default()).unwrap();
+        assert_eq!(r.free_fraction, 1.0, "{fov}: {r:?}");
+        assert!(r.mean_abs_deviation_deg < 5.0, "{fov}: {r:?}");
+        assert_eq!(r.motion.forward, r.scans, "{fov}: {r:?}");
+    }
+    // Beside FLASER copies of the same scans, only the ROBOTLASER1 lines are read.
+    let both = format!("{}{}", corridor_log(), robotlaser_log(270.0, 541));
+    let scans = parse(Path::new("both.log"), both.as_bytes()).unwrap();
+    assert_eq!((scans.len(), scans[0].ranges.len()), (120, 541));
+    let short = "ROBOTLASER1 0 -1.5 3.1 0.01 30 0.01 0 3 1 2 3 0 0 0 0\n";
+    let e = parse(Path::new("bad.log"), short.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("line 1") && e.contains("ROBOTLASER1 line with 3 beams"),
+        "{e}"
+    );
+    let bad_fov = robotlaser_log(180.0, 181).replacen(" 3.14159", " -3.14159", 1);
+    let e = parse(Path::new("fov.log"), bad_fov.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("field of view"), "{e}");
+}
+
+#[test]
+fn missing_readings_are_dropped_not_obstacles() {
+    // NaN, inf, zero and negative readings, as scanners write a missing return.
+    let mut holes = String::new();
+    for (no, line) in corridor_log().lines().enumerate() {
+        if !line.starts_with("FLASER") {
+            holes.push_str(line);
+            holes.push('\n');
+            continue;
+        }
+        let mut fields: Vec<String> = line.split(' ').map(String::from).collect();
+        for (i, f) in fields.iter_mut().enumerate().skip(2).take(181) {
+            match (i + no) % 9 {
+                0 => *f = "nan".into(),
+                3 => *f = "0".into(),
+                5 if i % 2 == 0 => *f = "-1".into(),
+                7 if i % 3 == 0 => *f = "inf".into(),
+                _ => {}
+            }
+        }
+        holes.push_str(&fields.join(" "));
+        holes.push('\n');
+    }
+    let scans = parse(Path::new("holes.log"), holes.as_bytes()).unwrap();
+    assert_eq!(scans.len(), 120);
+    assert!(scans
+        .iter()
+        .all(|s| s.ranges.len() < 181 && s.ranges.len() > 100));
+    assert!(scans
+        .iter()
+        .all(|s| s.ranges.iter().all(|r| r.is_finite() && *r > 0.0)));
+    assert!(scans
+        .iter()
+        .all(|s| s.angle_increment == scans[0].angle_increment));
+    let r = replay(&scans, &ReplayConfig::default()).unwrap();
+    assert_eq!(r.free_fraction, 1.0, "{r:?}");
+    assert!(r.mean_abs_deviation_deg < 5.0, "{r:?}");
 }

@@ -26,7 +26,12 @@ pub struct NavReplayCmd {
     odom_topic: Option<String>,
     #[command(flatten)]
     config: ConfigArg,
-    /// Print {"scans", "free_fraction", "mean_abs_deviation_deg"} as JSON.
+    /// Print the figures as JSON: "scans", "free_fraction", "mean_abs_deviation_deg" over
+    /// every scan with motion; "motion" (scans driving forward, turning in place, reversing,
+    /// standing); "forward" and "reference" ({"scans", "mean_deg", "median_deg", "p90_deg"}:
+    /// the chosen heading's and the nearest free heading's deviation over the forward-driving
+    /// scans); "forward_free_fraction"; "reference_missing" (forward scans with no free
+    /// heading). docs/NAVIGATION.md explains the classes.
     #[arg(long)]
     json: bool,
     /// Also write, per evaluated scan and stamped with it, the command as
@@ -89,6 +94,27 @@ pub fn run(cmd: NavReplayCmd) -> anyhow::Result<ExitCode> {
             r.scans,
             100.0 * r.free_fraction,
             r.mean_abs_deviation_deg
+        );
+        let m = &r.motion;
+        println!(
+            "  scans: {} forward, {} turning in place, {} reversing, {} standing",
+            m.forward, m.turning_in_place, m.reversing, m.standing
+        );
+        let (f, g) = (&r.forward, &r.reference);
+        println!(
+            "  forward: deviation mean {:.1}°, median {:.1}°, 90% {:.1}°, free {:.1}%; nearest free heading: mean {:.1}°, median {:.1}°, 90% {:.1}°{}",
+            f.mean_deg,
+            f.median_deg,
+            f.p90_deg,
+            100.0 * r.forward_free_fraction,
+            g.mean_deg,
+            g.median_deg,
+            g.p90_deg,
+            if r.reference_missing > 0 {
+                format!(" ({} scans with no free heading)", r.reference_missing)
+            } else {
+                String::new()
+            }
         );
     }
     Ok(ExitCode::SUCCESS)

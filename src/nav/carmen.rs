@@ -1,6 +1,17 @@
-//! CARMEN log reading: the `FLASER` lines of a (possibly gzipped) log, with the corrected pose
-//! of each scan. `FLASER n r1 … rn x y θ odom_x odom_y odom_θ timestamp host logger_timestamp`;
-//! ranges in metres over a 180° field of view, beam i at bearing −π/2 + i·π/(n−1).
+//! CARMEN log reading: the laser lines of a (possibly gzipped) log, with the corrected pose of
+//! each scan.
+//!
+//! - `FLASER n r1 … rn x y θ odom_x odom_y odom_θ timestamp host logger_timestamp`: ranges in
+//!   metres over a 180° field of view, beam i at bearing −π/2 + i·π/(n−1).
+//! - `ROBOTLASER1 type start_angle fov resolution max_range accuracy remission_mode n r1 … rn
+//!   m e1 … em laser_x laser_y laser_θ robot_x robot_y robot_θ tv rv forward_safety
+//!   side_safety turn_axis timestamp host logger_timestamp`: beam i at start_angle +
+//!   i·resolution, so scanners of 270° or 360° keep their geometry; the pose is the laser's.
+//!
+//! A log with ROBOTLASER1 lines is read from those only (loggers write FLASER copies of the
+//! same scans beside them). A reading that is NaN, infinite, zero or negative is no reading at
+//! all (scanners report a missing return so): the beam is dropped from its scan, which keeps
+//! its `angle_increment`, so the other beams' weight does not change.
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -45,17 +56,18 @@ pub fn read_log(path: &Path) -> Result<Vec<Scan>> {
     parse(path, reader)
 }
 
-/// Parses the FLASER lines of a log; other lines are skipped, malformed FLASER lines are errors
-/// naming the line.
+/// Parses the laser lines of a log (see the module docs); other lines are skipped, malformed
+/// laser lines are errors naming the line.
 pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
-    let mut scans = Vec::new();
+    let (mut flaser, mut robotlaser) = (Vec::new(), Vec::new());
     for (no, line) in reader.lines().enumerate() {
         let line = line.map_err(|source| Error::Io {
             path: path.to_path_buf(),
             source,
         })?;
         let mut it = line.split_whitespace();
-        if it.next() != Some("FLASER") {
+        let kind = it.next();
+        if !matches!(kind, Some("FLASER" | "ROBOTLASER1")) {
             continue;
         }
         let bad = |why: String| Error::Parse {
@@ -63,55 +75,138 @@ pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
             reason: format!("line {}: {why}", no + 1),
         };
         let fields: Vec<&str> = it.collect();
-        let n: usize = fields
-            .first()
-            .and_then(|v| v.parse().ok())
-            .ok_or_else(|| bad("missing beam count".into()))?;
-        // `n r1 … rn x y θ odom_x odom_y odom_θ ipc_time host logger_time`: exactly n + 10
-        // fields, so a count one off is caught instead of shifting every field after it.
-        if n < 2 || n.checked_add(10) != Some(fields.len()) {
-            return Err(bad(format!(
-                "a FLASER line with {} beams has {} fields after the keyword, found {}",
-                n,
-                n.saturating_add(10),
-                fields.len()
-            )));
+        if kind == Some("FLASER") {
+            flaser.push(flaser_scan(&fields, &bad)?);
+        } else {
+            robotlaser.push(robotlaser_scan(&fields, &bad)?);
         }
-        let num = |s: &str| {
-            s.parse::<f64>()
-                .map_err(|_| bad(format!("'{s}' is not a number")))
-        };
-        let ranges = fields[1..=n]
-            .iter()
-            .map(|s| num(s).map(|v| v as f32))
-            .collect::<Result<Vec<_>>>()?;
-        let (x, y, theta) = (
-            num(fields[n + 1])?,
-            num(fields[n + 2])?,
-            num(fields[n + 3])?,
-        );
-        let time = num(fields[n + 7])?;
-        if ![x, y, theta, time].iter().all(|v| v.is_finite()) {
-            return Err(bad("non-finite pose or time".into()));
-        }
-        if let Some(i) = ranges.iter().position(|r| r.is_nan()) {
-            return Err(bad(format!("range {} of {n} is NaN", i + 1)));
-        }
-        let bearings = (0..n)
-            .map(|i| {
-                (-std::f64::consts::FRAC_PI_2 + i as f64 * std::f64::consts::PI / (n - 1) as f64)
-                    as f32
-            })
-            .collect();
-        scans.push(Scan {
-            ranges,
-            bearings,
-            angle_increment: std::f32::consts::PI / (n - 1) as f32,
-            x,
-            y,
-            theta,
-            time,
-        });
     }
-    Ok(scans)
+    Ok(if robotlaser.is_empty() {
+        flaser
+    } else {
+        robotlaser
+    })
+}
+
+fn number(s: &str, bad: &dyn Fn(String) -> Error) -> Result<f64> {
+    s.parse::<f64>()
+        .map_err(|_| bad(format!("'{s}' is not a number")))
+}
+
+/// A count field, bounded by the fields the line really has.
+fn count(s: Option<&&str>, what: &str, bad: &dyn Fn(String) -> Error) -> Result<usize> {
+    s.and_then(|v| v.parse().ok())
+        .ok_or_else(|| bad(format!("missing {what}")))
+}
+
+/// The scan of `ranges` at `bearings`, readings that are no reading dropped, the pose checked.
+fn scan(
+    ranges: Vec<f32>,
+    bearings: Vec<f32>,
+    angle_increment: f32,
+    (x, y, theta): (f64, f64, f64),
+    time: f64,
+    bad: &dyn Fn(String) -> Error,
+) -> Result<Scan> {
+    if ![x, y, theta, time].iter().all(|v| v.is_finite()) {
+        return Err(bad("non-finite pose or time".into()));
+    }
+    let (ranges, bearings) = ranges
+        .into_iter()
+        .zip(bearings)
+        .filter(|(r, _)| r.is_finite() && *r > 0.0)
+        .unzip();
+    Ok(Scan {
+        ranges,
+        bearings,
+        angle_increment,
+        x,
+        y,
+        theta,
+        time,
+    })
+}
+
+fn flaser_scan(fields: &[&str], bad: &dyn Fn(String) -> Error) -> Result<Scan> {
+    let n = count(fields.first(), "beam count", bad)?;
+    // `n r1 … rn x y θ odom_x odom_y odom_θ ipc_time host logger_time`: exactly n + 10
+    // fields, so a count one off is caught instead of shifting every field after it.
+    if n < 2 || n.checked_add(10) != Some(fields.len()) {
+        return Err(bad(format!(
+            "a FLASER line with {} beams has {} fields after the keyword, found {}",
+            n,
+            n.saturating_add(10),
+            fields.len()
+        )));
+    }
+    let ranges = fields[1..=n]
+        .iter()
+        .map(|s| number(s, bad).map(|v| v as f32))
+        .collect::<Result<Vec<_>>>()?;
+    let pose = (
+        number(fields[n + 1], bad)?,
+        number(fields[n + 2], bad)?,
+        number(fields[n + 3], bad)?,
+    );
+    let step = std::f64::consts::PI / (n - 1) as f64;
+    let bearings = (0..n)
+        .map(|i| (-std::f64::consts::FRAC_PI_2 + i as f64 * step) as f32)
+        .collect();
+    scan(
+        ranges,
+        bearings,
+        step as f32,
+        pose,
+        number(fields[n + 7], bad)?,
+        bad,
+    )
+}
+
+fn robotlaser_scan(fields: &[&str], bad: &dyn Fn(String) -> Error) -> Result<Scan> {
+    // type start fov resolution max_range accuracy remission_mode n …
+    let n = count(fields.get(7), "beam count", bad)?;
+    let m = count(fields.get(8 + n), "remission count", bad)?;
+    // … n ranges, m, m remissions, 6 poses, tv rv fsd ssd turn_axis, time host logger_time.
+    let expected = n
+        .checked_add(m)
+        .and_then(|v| v.checked_add(8 + 1 + 6 + 5 + 3));
+    if n < 2 || expected != Some(fields.len()) {
+        return Err(bad(format!(
+            "a ROBOTLASER1 line with {n} beams and {m} remissions has {} fields after the keyword, found {}",
+            expected.map_or_else(|| "too many".into(), |e| e.to_string()),
+            fields.len()
+        )));
+    }
+    let start = number(fields[1], bad)?;
+    let fov = number(fields[2], bad)?;
+    let resolution = number(fields[3], bad)?;
+    if !(start.is_finite()
+        && resolution.is_finite()
+        && resolution > 0.0
+        && fov.is_finite()
+        && fov > 0.0
+        && fov <= std::f64::consts::TAU + 1e-3)
+    {
+        return Err(bad(format!(
+            "start angle {start}, field of view {fov} and resolution {resolution} (rad) must be finite, with 0 < field of view ≤ 2π and resolution > 0"
+        )));
+    }
+    let ranges = fields[8..8 + n]
+        .iter()
+        .map(|s| number(s, bad).map(|v| v as f32))
+        .collect::<Result<Vec<_>>>()?;
+    let poses = 9 + n + m;
+    let pose = (
+        number(fields[poses], bad)?,
+        number(fields[poses + 1], bad)?,
+        number(fields[poses + 2], bad)?,
+    );
+    let bearings = (0..n)
+        .map(|i| {
+            let b = start + i as f64 * resolution;
+            b.sin().atan2(b.cos()) as f32
+        })
+        .collect();
+    let time = number(fields[poses + 11], bad)?;
+    scan(ranges, bearings, resolution as f32, pose, time, bad)
 }

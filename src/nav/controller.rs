@@ -15,8 +15,8 @@ use super::camera::CameraConfig;
 use super::dnf::{heading as neuron_heading, FieldBatch, FieldConfig};
 use super::gist::Gist;
 use super::stimulus::{
-    angle_diff, combined, obstacle_stimulus, obstacle_velocity, target_stimulus, target_velocity,
-    velocity, StimulusConfig,
+    angle_diff, combined, field_of_view, in_view, obstacle_stimulus, obstacle_velocity,
+    target_stimulus, target_velocity, velocity, StimulusConfig,
 };
 use super::visual::{sector_features, visual_stimulus, VisualConfig, VisualObstacleModel};
 use crate::error::{Error, Result};
@@ -342,9 +342,12 @@ impl Controller {
                 .learn(&features, &blocked, cfg.visual.learning_rate);
         }
         let mut s = combined(&target_stimulus(target, &cfg.stimulus, n), &obstacle);
+        // Behind, and outside the scanner's view (a scanner narrower than 180°): headings the
+        // robot should not take, or knows nothing of.
+        let view = field_of_view(&scan.bearings, scan.spacing()).unwrap_or((0.0, 0.0));
         for (i, si) in s.iter_mut().enumerate() {
             let h = angle_diff(i as f32 * TAU / n as f32, pose[2]);
-            if h.abs() > FRAC_PI_2 {
+            if h.abs() > FRAC_PI_2 || !in_view(h, view) {
                 *si -= cfg.rear_inhibition;
             }
         }

@@ -102,6 +102,21 @@ pub fn angle_diff(a: f32, b: f32) -> f32 {
     }
 }
 
+/// A scanner's field of view from its beams (robot frame, rad): the first and last bearings,
+/// widened by half a beam each side; `None` for a scan with no beam.
+pub fn field_of_view(bearings: &[f32], angle_increment: f32) -> Option<(f32, f32)> {
+    let half = 0.5 * angle_increment;
+    let lo = bearings.iter().copied().reduce(f32::min)?;
+    let hi = bearings.iter().copied().reduce(f32::max)?;
+    Some((lo - half, hi + half))
+}
+
+/// Whether the robot-frame heading `h` (in [−π, π]) lies inside the view `fov`; a view of 360°
+/// holds every heading.
+pub fn in_view(h: f32, fov: (f32, f32)) -> bool {
+    fov.1 - fov.0 >= std::f32::consts::TAU - 1e-3 || (h >= fov.0 && h <= fov.1)
+}
+
 /// Heading of each of `n` neurons.
 fn headings(n: usize) -> impl Iterator<Item = f32> {
     (0..n).map(move |i| i as f32 * std::f32::consts::TAU / n as f32)

@@ -6,8 +6,16 @@
 //! (Δφ·√(σ/π)): a wall then inhibits about as strongly as one obstacle of eq 32 would, whatever
 //! the scanner's resolution. Headings outside the scanner's 180° field of view are unknown and
 //! are inhibited by `rear_inhibition`.
+//!
+//! Besides the field's figures over every scan with motion, each scan is classed by what the
+//! robot did ([`metric::Motion`]), and the forward-driving scans are scored against the free
+//! heading nearest to the real motion ([`metric`]).
+
+pub mod metric;
 
 use serde::{Deserialize, Serialize};
+
+use metric::{Deviation, Motion, MotionCounts};
 
 use super::carmen::Scan;
 use super::controller::{Controller, LaserScan};
@@ -42,6 +50,9 @@ pub struct ReplayConfig {
     /// prints them with six digits, so consecutive scans share one), the target is the
     /// direction to the first later pose at least this far (m). Default 0.3.
     pub fallback_distance: f64,
+    /// A scan after which the robot moves less than `min_motion` but turns at least this
+    /// much over the look-ahead (degrees) counts as turning in place. Default 15.
+    pub turn_min_deg: f64,
 }
 
 impl ReplayConfig {
@@ -49,7 +60,7 @@ impl ReplayConfig {
     pub fn validate(&self) -> Result<()> {
         self.field.validate()?;
         self.stimulus.validate()?;
-        let checks: [(&'static str, f64, f64, f64); 6] = [
+        let checks: [(&'static str, f64, f64, f64); 7] = [
             ("lookahead", self.lookahead, 1e-3, 3600.0),
             ("min_motion", self.min_motion, 0.0, 1e3),
             ("safety", self.safety as f64, 0.0, 1e3),
@@ -61,6 +72,7 @@ impl ReplayConfig {
             ),
             ("rear_inhibition", self.rear_inhibition as f64, 0.0, 1e3),
             ("fallback_distance", self.fallback_distance, 1e-3, 1e3),
+            ("turn_min_deg", self.turn_min_deg, 0.0, 360.0),
         ];
         for (field, v, lo, hi) in checks {
             if !(v.is_finite() && v >= lo && v <= hi) {
@@ -90,6 +102,7 @@ impl Default for ReplayConfig {
             free_halfwidth_deg: 10.0,
             rear_inhibition: 4.0,
             fallback_distance: 0.3,
+            turn_min_deg: 15.0,
         }
     }
 }
@@ -137,12 +150,24 @@ pub fn frame_offset(scans: &[Scan], cfg: &ReplayConfig) -> f64 {
 /// The figures of a replay.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ReplayResult {
-    /// Scans evaluated.
+    /// Scans evaluated: those after which the robot moved at least `min_motion` (forward or
+    /// reversing).
     pub scans: usize,
     /// Fraction of them whose chosen heading is free.
     pub free_fraction: f64,
-    /// Mean |chosen heading − real motion| in degrees.
+    /// Mean |chosen heading − real motion| in degrees, over the same scans.
     pub mean_abs_deviation_deg: f64,
+    /// Every scan with a look-ahead, by what the robot did over it.
+    pub motion: MotionCounts,
+    /// |chosen heading − real motion| over the forward-driving scans.
+    pub forward: Deviation,
+    /// Fraction of the forward-driving scans whose chosen heading is free.
+    pub forward_free_fraction: f64,
+    /// |nearest free heading − real motion| over the forward-driving scans that have a free
+    /// heading: how far any free choice had to be from the real motion.
+    pub reference: Deviation,
+    /// Forward-driving scans on which no heading in view is free.
+    pub reference_missing: usize,
 }
 
 /// Whether `heading` (robot frame) is free in `scan`.
@@ -199,6 +224,9 @@ pub fn replay_with(
         Default::default(),
     )?;
     let (mut evaluated, mut free, mut deviation) = (0usize, 0usize, 0.0f64);
+    let mut motion = MotionCounts::default();
+    let (mut forward, mut forward_free, mut reference, mut reference_missing) =
+        (Vec::new(), 0usize, Vec::new(), 0usize);
     let halfwidth = cfg.free_halfwidth_deg.to_radians();
     let offset = frame_offset(scans, cfg);
     let by_time = timestamps_usable(scans);
@@ -207,10 +235,21 @@ pub fn replay_with(
             break;
         };
         let (dx, dy) = (later.x - scan.x, later.y - scan.y);
-        if dx.hypot(dy) < cfg.min_motion {
+        let target = angle_diff((dy.atan2(dx) - scan.theta - offset) as f32, 0.0);
+        let class = metric::classify(
+            dx.hypot(dy),
+            target,
+            (later.theta - scan.theta)
+                .sin()
+                .atan2((later.theta - scan.theta).cos()),
+            metric::view_of(scan),
+            cfg.min_motion,
+            cfg.turn_min_deg.to_radians(),
+        );
+        motion.add(class);
+        if matches!(class, Motion::TurningInPlace | Motion::Standing) {
             continue;
         }
-        let target = angle_diff((dy.atan2(dx) - scan.theta - offset) as f32, 0.0);
         // Every reading is an obstacle (the scanner's no-return value too, far and weak), each
         // weighted by the beams' angular density (see the module docs).
         let laser = LaserScan {
@@ -230,7 +269,17 @@ pub fn replay_with(
         })?;
         evaluated += 1;
         free += is as usize;
-        deviation += angle_diff(heading, target).abs().to_degrees() as f64;
+        let off = angle_diff(heading, target).abs().to_degrees() as f64;
+        deviation += off;
+        if class == Motion::Forward {
+            forward.push(off);
+            forward_free += is as usize;
+            let free_at = |h: f32| is_free(scan, h, cfg.safety, halfwidth);
+            match metric::nearest_free(scan, target, free_at) {
+                Some(h) => reference.push(angle_diff(h, target).abs().to_degrees() as f64),
+                None => reference_missing += 1,
+            }
+        }
     }
     if evaluated == 0 {
         return Err(Error::input(
@@ -253,5 +302,14 @@ pub fn replay_with(
         } else {
             deviation / evaluated as f64
         },
+        forward_free_fraction: if forward.is_empty() {
+            0.0
+        } else {
+            forward_free as f64 / forward.len() as f64
+        },
+        motion,
+        forward: Deviation::of(forward),
+        reference: Deviation::of(reference),
+        reference_missing,
     })
 }
