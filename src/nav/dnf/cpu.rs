@@ -1,6 +1,7 @@
 //! The dynamic neural field of eqs 28–31: a ring of N heading neurons,
 //! τ u̇(φ) = −u(φ) + S(φ) + h + Σ_φ' w(φ, φ') f(u(φ')) (eq 30), integrated by Euler steps, with the
-//! interaction kernel of eq 31 (+1 within 3 neighbours on the ring, −2.2 otherwise) or a
+//! interaction kernel of eq 31 (+1 within 3 neighbours on the ring, −2.2 otherwise in the paper,
+//! −1 by default here: see [`FieldConfig::interaction`]) or a
 //! difference of Gaussians, f a Heaviside step or a sigmoid, and the chosen heading
 //! φ_F = argmax u (eq 29). Headings wrap: neuron i stands for the angle 2πi/N.
 //!
@@ -77,7 +78,14 @@ pub struct FieldConfig {
     pub dt: f32,
     /// Resting level h. Default −2.
     pub h: f32,
-    /// Lateral interaction. Default eq 31 (+1 within 3 neighbours, −2.2 beyond).
+    /// Lateral interaction. Default eq 31's shape, +1 within 3 neighbours, with **−1** beyond
+    /// instead of the paper's −2.2. Against a stimulus whose range is a few units (the target's
+    /// tent falls by 2 per radian), −2.2 per active neuron pins a formed peak where it is: the
+    /// chosen heading trailed a free real motion by 9–20° on the CARMEN logs, and a robot
+    /// passing its goal beside a pillar kept the old heading and drove away. At −1 the peak
+    /// follows a swinging target (6–7°; every pillar placement reaches its goal) and still
+    /// picks one winner between two stimuli 10% apart; below −0.9 it no longer does
+    /// (docs/NAVIGATION.md).
     pub interaction: Interaction,
     /// Output non-linearity. Default Heaviside.
     pub activation: Activation,
@@ -92,7 +100,7 @@ impl Default for FieldConfig {
             h: -2.0,
             interaction: Interaction::Amari {
                 excite: 1.0,
-                inhibit: -2.2,
+                inhibit: -1.0,
                 width: 3,
             },
             activation: Activation::Heaviside,
