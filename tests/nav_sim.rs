@@ -157,6 +157,7 @@ fn fusion_beats_lidar_alone_where_the_lidar_is_blind_and_matches_it_elsewhere() 
         obstacles: 8,
         invisible: 0.4,
         training: 10,
+        goal_guard: false,
     };
     let model = train_visual_model(&cfg, &gist, &settings).unwrap();
     assert!(model.obstacle_samples > 100 && model.free_samples > 100);
@@ -313,5 +314,22 @@ fn the_goal_is_reached_without_circling_past_a_pillar_near_it() {
             "pillar at +({x}, {y}): path {} m",
             e.path_length
         );
+    }
+}
+
+#[test]
+fn a_guarded_goal_has_a_pillar_just_before_it_and_stays_clear() {
+    for seed in 0..50 {
+        let mut w = World::random(seed, 8, 0.4);
+        let before = w.obstacles.len();
+        w.guard_goal(seed);
+        assert_eq!(w.obstacles.len(), before + 1);
+        let Shape::Circle { center, radius } = w.obstacles[before].shape else {
+            panic!("a pillar");
+        };
+        let to_goal = (center[0] - w.goal[0]).hypot(center[1] - w.goal[1]);
+        assert!((1.1..1.75).contains(&to_goal), "{seed}: {to_goal}");
+        assert!(to_goal - radius > 0.6, "{seed}: the goal stays reachable");
+        assert!(!w.collides(w.goal));
     }
 }

@@ -66,6 +66,7 @@ pub fn run(cmd: NavCmd) -> anyhow::Result<ExitCode> {
         seed: cmd.seed,
         obstacles: world.obstacles.len().max(1),
         invisible: 0.4,
+        goal_guard: false,
         training: if cmd.mode == Mode::Fusion {
             cmd.train
         } else {

@@ -31,6 +31,11 @@ pub struct NavEvalCmd {
     /// Training episodes of the visual model before fusion is evaluated.
     #[arg(long, default_value_t = 20)]
     train: usize,
+    /// Put a visible pillar 1.1–1.6 m before each world's goal, beside the straight line to
+    /// it, so the goal's bearing swings quickly at the end: counts the episodes that still
+    /// reach the goal instead of passing it and driving on.
+    #[arg(long)]
+    goal_guard: bool,
     #[command(flatten)]
     config: ConfigArg,
     /// Print {"laser": {...}, "fusion": {...}} for the worlds as generated (keys episodes,
@@ -63,6 +68,7 @@ pub fn run(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
         obstacles: cmd.obstacles,
         invisible: cmd.invisible,
         training: cmd.train,
+        goal_guard: cmd.goal_guard,
     };
     let runs = if cmd.json && cmd.plot.is_none() { 2 } else { 4 };
     let bar = indicatif::ProgressBar::new((runs * cmd.episodes + cmd.train) as u64);

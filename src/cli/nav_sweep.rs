@@ -59,6 +59,7 @@ pub fn run(cmd: NavSweepCmd) -> anyhow::Result<ExitCode> {
         obstacles: cmd.obstacles,
         invisible: cmd.invisible,
         training: if cmd.mode == Mode::Fusion { 20 } else { 0 },
+        goal_guard: false,
     };
     let model = train_visual_model(&base, &gist, &settings)?;
     let bar = indicatif::ProgressBar::new(((cmd.samples + 1) * cmd.episodes) as u64);

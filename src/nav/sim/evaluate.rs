@@ -58,6 +58,9 @@ pub struct EvalSettings {
     pub invisible: f32,
     /// Training episodes of the visual model before evaluating fusion.
     pub training: usize,
+    /// A pillar just before each world's goal, beside the straight line to it
+    /// ([`World::guard_goal`]).
+    pub goal_guard: bool,
 }
 
 /// Summary of finished episodes.
@@ -173,11 +176,12 @@ pub fn run_worlds(
 
 /// The evaluation worlds: world `k` of a run seeded `seed`.
 pub fn evaluation_world(settings: &EvalSettings, k: usize) -> World {
-    World::random(
-        settings.seed.wrapping_add(k as u64),
-        settings.obstacles,
-        settings.invisible,
-    )
+    let seed = settings.seed.wrapping_add(k as u64);
+    let mut world = World::random(seed, settings.obstacles, settings.invisible);
+    if settings.goal_guard {
+        world.guard_goal(seed);
+    }
+    world
 }
 
 /// The same world with every obstacle standing in the LIDAR's scan plane.

@@ -247,6 +247,28 @@ impl World {
         hits
     }
 
+    /// Adds a visible pillar (radius 0.3–0.45 m) 1.1–1.6 m before the goal along the line from
+    /// the start, 0.35–0.6 m to one side of it, so the goal's bearing swings by tens of degrees
+    /// per second in the last metres: the case where a controller whose chosen heading lags
+    /// the target passes the goal and drives on.
+    pub fn guard_goal(&mut self, seed: u64) {
+        let mut rng = Rng(seed ^ 0x6a09_e667_f3bc_c908);
+        let (gx, gy) = (self.goal[0], self.goal[1]);
+        let (dx, dy) = (self.start[0] - gx, self.start[1] - gy);
+        let len = dx.hypot(dy).max(1e-6);
+        let (ux, uy) = (dx / len, dy / len);
+        let back = rng.range(1.1, 1.6).min(0.8 * len);
+        let side = rng.range(0.35, 0.6) * if rng.unit() < 0.5 { -1.0 } else { 1.0 };
+        self.obstacles.push(Obstacle {
+            shape: Shape::Circle {
+                center: [gx + back * ux - side * uy, gy + back * uy + side * ux],
+                radius: rng.range(0.3, 0.45),
+            },
+            height: 1.0,
+            transparent: false,
+        });
+    }
+
     /// A seeded random world: `count` obstacles (discs and boxes) scattered between start and
     /// goal, a fraction `invisible` of them lower than the LIDAR's scan plane; start and goal
     /// kept clear.
