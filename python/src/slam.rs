@@ -42,13 +42,17 @@ impl Slam {
         fy: f64,
         cx: f64,
         cy: f64,
-        width: u32,
-        height: u32,
+        width: i64,
+        height: i64,
         distortion: Option<Vec<f64>>,
         backend: &str,
         detector: Option<&Bound<'_, PyDict>>,
         settings: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
+        let (width, height) = (
+            crate::convert::image_side("width", width)?,
+            crate::convert::image_side("height", height)?,
+        );
         let mut camera = PinholeCamera::ideal(fx, fy, cx, cy, width, height);
         if let Some(d) = distortion {
             if d.len() > 5 {

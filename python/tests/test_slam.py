@@ -52,3 +52,10 @@ def test_slam_refuses_pickling_saying_why():
     slam = steernav.Slam(500.0, 500.0, 320, 240, 640, 480, backend="cpu")
     with pytest.raises(TypeError, match="cannot pickle 'steernav.Slam': it holds a running filter"):
         pickle.dumps(slam)
+
+
+def test_bad_camera_arguments_are_named():
+    with pytest.raises(ValueError, match="width = -96: must be a positive whole number"):
+        steernav.Slam(500.0, 500.0, 320, 240, -96, 480)
+    with pytest.raises(ValueError, match="camera.fx = 1e-300.*170°"):
+        steernav.Slam(1e-300, 500.0, 320, 240, 640, 480)

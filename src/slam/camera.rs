@@ -13,6 +13,19 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, Error, Result};
 
+/// A number as people write it: plain in the usual range, in exponent form outside it.
+fn short(v: f64) -> String {
+    if v == 0.0 || (1e-3..1e7).contains(&v.abs()) {
+        v.to_string()
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// The farthest image corner of a pinhole camera, in focal lengths from the axis, at most:
+/// tan 85°, a field of view of 170° across the diagonal.
+const MAX_CORNER_RADIUS: f64 = 11.43;
+
 /// Intrinsics and distortion of one camera (the `[camera]` table of a calibration TOML).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -70,7 +83,9 @@ impl PinholeCamera {
         }
     }
 
-    /// Checks that every parameter is finite and the focal lengths and size are positive.
+    /// Checks that every parameter is finite, the focal lengths and size are positive, the
+    /// principal point lies within an image size of the image, the field of view is one a
+    /// pinhole camera can have, and the radial distortion does not fold the image.
     pub fn validate(&self) -> Result<()> {
         for (field, value) in [
             ("camera.fx", self.fx),
@@ -108,23 +123,51 @@ impl PinholeCamera {
                 "image size must be positive",
             ));
         }
+        // The principal point may sit off centre, or just outside a cropped image, but not
+        // image sizes away from it.
+        for (field, c, size) in [
+            ("camera.cx", self.cx, self.width),
+            ("camera.cy", self.cy, self.height),
+        ] {
+            let size = size as f64;
+            if !(-size..=2.0 * size).contains(&c) {
+                return Err(Error::config(
+                    field,
+                    c,
+                    format!("the principal point must lie within one image size ({size} px) of the image"),
+                ));
+            }
+        }
+        // A pinhole camera sees less than 180°: the farthest corner at 11.4 focal lengths from
+        // the axis is already 170° across. A smaller focal length is a unit or typing error.
+        let r_max = self.farthest_corner_radius();
+        if r_max > MAX_CORNER_RADIUS {
+            return Err(Error::config(
+                "camera.fx",
+                format!("{} (fy = {})", short(self.fx), short(self.fy)),
+                format!(
+                    "the image's farthest corner lies {r_max:.3e} focal lengths from the axis, a field of view of {:.1}° across; a pinhole camera sees at most 170° (corner at ≤ {MAX_CORNER_RADIUS:.1} focal lengths): is the focal length in pixels?",
+                    2.0 * r_max.atan().to_degrees()
+                ),
+            ));
+        }
         self.check_radial_distortion_is_monotonic()
+    }
+
+    /// The normalised radius (in focal lengths) of the image corner farthest from the axis.
+    fn farthest_corner_radius(&self) -> f64 {
+        let (w, h) = (self.width as f64, self.height as f64);
+        [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .iter()
+            .map(|&(u, v)| ((u - self.cx) / self.fx).hypot((v - self.cy) / self.fy))
+            .fold(0.0, f64::max)
     }
 
     /// The radial model r_d = r(1 + k1 r² + k2 r⁴ + k3 r⁶) must grow with r out to the image's
     /// farthest corner, or two image radii map to one ray and undistortion has no answer; a
     /// k1 of 1e308 (accepted as finite) gives an all-identity trajectory otherwise.
     fn check_radial_distortion_is_monotonic(&self) -> Result<()> {
-        let corners = [
-            (0.0, 0.0),
-            (self.width as f64, 0.0),
-            (0.0, self.height as f64),
-            (self.width as f64, self.height as f64),
-        ];
-        let r_max = corners
-            .iter()
-            .map(|(u, v)| ((u - self.cx) / self.fx).hypot((v - self.cy) / self.fy))
-            .fold(0.0, f64::max);
+        let r_max = self.farthest_corner_radius();
         let radial = |r: f64| {
             let r2 = r * r;
             r * (1.0 + r2 * (self.k1 + r2 * (self.k2 + r2 * self.k3)))
@@ -476,5 +519,27 @@ mod tests {
         let cam = PinholeCamera::ideal(0.0, 400.0, 320.0, 240.0, 640, 480);
         let message = cam.validate().unwrap_err().to_string();
         assert!(message.contains("camera.fx"), "{message}");
+    }
+
+    #[test]
+    fn a_focal_length_no_lens_has_and_a_far_principal_point_are_refused() {
+        // 1e-300 px used to pass as finite and was blamed on the distortion.
+        let tiny = PinholeCamera::ideal(1e-300, 400.0, 320.0, 240.0, 640, 480);
+        let message = tiny.validate().unwrap_err().to_string();
+        assert!(
+            message.contains("camera.fx = 1e-300") && message.contains("170°"),
+            "{message}"
+        );
+        assert!(!message.contains("distortion"), "{message}");
+        // A wide but real lens (about 150° across the diagonal) passes.
+        assert!(PinholeCamera::ideal(100.0, 100.0, 320.0, 240.0, 640, 480)
+            .validate()
+            .is_ok());
+        let far = PinholeCamera::ideal(400.0, 400.0, 1e6, 240.0, 640, 480);
+        let message = far.validate().unwrap_err().to_string();
+        assert!(
+            message.contains("camera.cx") && message.contains("principal point"),
+            "{message}"
+        );
     }
 }
