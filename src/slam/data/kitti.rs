@@ -107,13 +107,16 @@ pub fn read_times(path: &Path) -> Result<Vec<f64>> {
     Ok(times)
 }
 
-/// Whether a trajectory file holds KITTI pose rows (12 values on its first data line).
+/// Whether a trajectory file holds KITTI pose rows (9 or more values on its first data line;
+/// a TUM row has 8).
 pub fn looks_like_poses(path: &Path) -> bool {
     crate::error::read_input(path).is_ok_and(|text| {
         text.lines()
             .map(str::trim)
             .find(|l| !l.is_empty() && !l.starts_with('#'))
-            .is_some_and(|l| l.split_whitespace().count() == 12)
+            // TUM rows have 8 values; 9 or more can only be a KITTI pose row, perhaps one
+            // with a value missing or extra, which its reader then names.
+            .is_some_and(|l| l.split_whitespace().count() >= 9)
     })
 }
 
@@ -233,6 +236,11 @@ mod tests {
         let message = read_poses(&path, &[0.0, 0.1, 0.2]).unwrap_err().to_string();
         assert!(message.contains("2 pose rows for 3 frames"), "{message}");
         std::fs::write(&path, "1 0 0 0 0 1 0 0 0 0 1\n").unwrap();
+        // A row one value short is still a KITTI row (a TUM row has 8), so its own reader
+        // names it rather than the TUM one.
+        assert!(looks_like_poses(&path));
+        std::fs::write(dir.path().join("tum.txt"), "0 1 2 3 0 0 0 1\n").unwrap();
+        assert!(!looks_like_poses(&dir.path().join("tum.txt")));
         let message = read_poses(&path, &[0.0]).unwrap_err().to_string();
         assert!(
             message.contains("line 1") && message.contains("12 values"),
