@@ -65,15 +65,12 @@ pub(crate) fn toml_value(key: &str, value: &Bound<'_, PyAny>) -> PyResult<toml::
 /// An image side given as a Python int, as pixels: a negative or huge value is a
 /// `ValueError` naming the argument, not an `OverflowError` from the conversion.
 pub(crate) fn image_side(name: &str, value: i64) -> PyResult<u32> {
-    u32::try_from(value)
-        .ok()
-        .filter(|&v| v > 0)
-        .ok_or_else(|| {
-            PyValueError::new_err(format!(
-                "{name} = {value}: must be a positive whole number of pixels (at most {})",
-                u32::MAX
-            ))
-        })
+    u32::try_from(value).ok().filter(|&v| v > 0).ok_or_else(|| {
+        PyValueError::new_err(format!(
+            "{name} = {value}: must be a positive whole number of pixels (at most {})",
+            u32::MAX
+        ))
+    })
 }
 
 /// The `TypeError` of an object that refuses to be pickled, saying why and what to do.

@@ -297,32 +297,45 @@ impl Detector {
             Some(names) => names,
             None => (0..sources.len()).map(|i| format!("image {i}")).collect(),
         };
-        let detector = Arc::clone(&self.inner);
-        let names_ref = &names;
-        let found = py.detach(move || {
-            use rayon::prelude::*;
-            let frames: Vec<(usize, steernav_core::Result<Frame>)> = sources
-                .into_par_iter()
-                .zip(names_ref)
-                .enumerate()
-                .map(|(i, (source, name))| {
-                    let frame = match source {
-                        Some(Source::Pixels(frame)) => Ok(frame),
-                        Some(Source::Encoded(bytes)) => {
-                            Frame::decode(std::path::Path::new(name), &bytes)
-                        }
-                        // Its error is in `refused`; a pixel stands in for it.
-                        None => Frame::from_rgb(1, 1, vec![0; 3]),
-                    };
-                    (i, frame)
-                })
-                .collect();
-            let mut found = Vec::with_capacity(frames.len());
-            detector.detect_stream(frames, |_, result| {
-                found.push(result.map(|(_, detection)| detection))
+        // In chunks, with Ctrl-C checked between them: a long batch stays interruptible, and
+        // a chunk is long enough to keep the stream's frames in flight.
+        const CHUNK: usize = 16;
+        let mut found = Vec::with_capacity(sources.len());
+        let mut sources = sources.into_iter();
+        loop {
+            let chunk: Vec<Option<Source>> = sources.by_ref().take(CHUNK).collect();
+            if chunk.is_empty() {
+                break;
+            }
+            let names = &names[found.len()..found.len() + chunk.len()];
+            let detector = Arc::clone(&self.inner);
+            let part = py.detach(move || {
+                use rayon::prelude::*;
+                let frames: Vec<(usize, steernav_core::Result<Frame>)> = chunk
+                    .into_par_iter()
+                    .zip(names)
+                    .enumerate()
+                    .map(|(i, (source, name))| {
+                        let frame = match source {
+                            Some(Source::Pixels(frame)) => Ok(frame),
+                            Some(Source::Encoded(bytes)) => {
+                                Frame::decode(std::path::Path::new(name), &bytes)
+                            }
+                            // Its error is in `refused`; a pixel stands in for it.
+                            None => Frame::from_rgb(1, 1, vec![0; 3]),
+                        };
+                        (i, frame)
+                    })
+                    .collect();
+                let mut part = Vec::with_capacity(frames.len());
+                detector.detect_stream(frames, |_, result| {
+                    part.push(result.map(|(_, detection)| detection))
+                });
+                part
             });
-            found
-        });
+            found.extend(part);
+            py.check_signals()?;
+        }
         found
             .into_iter()
             .zip(refused)

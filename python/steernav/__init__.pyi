@@ -72,7 +72,8 @@ class Detector:
         once as there are cores on the CPU, the GIL released. An item is an image array or the
         bytes of an encoded file (decoded as the CLI decodes it). With return_exceptions=True a
         failing image gives its exception in its place; otherwise the first failure is raised.
-        Errors name the item by names[i], or as "image i"."""
+        Errors name the item by names[i], or as "image i". Runs in chunks of 16 images with
+        Ctrl-C checked between them (KeyboardInterrupt)."""
 
 def gist(
     images: Union[Image, Sequence[Image]], backend: str = "auto", **settings: Any

@@ -105,3 +105,22 @@ def test_detect_batch_takes_encoded_files_and_keeps_going(sample):
         det.detect_batch(items)
     with pytest.raises(ValueError, match="names: 1 names for 5 images"):
         det.detect_batch(items, names=["x"])
+
+
+def test_a_long_batch_stops_on_ctrl_c():
+    import _thread
+    import threading
+    import time
+
+    det = steernav.Detector(backend="cpu", max_keypoints=50)
+    image = steernav.textured_scene(96, 72, 3)
+    t0 = time.perf_counter()
+    det.detect_batch([image] * 200)
+    per_200 = time.perf_counter() - t0
+    # Interrupt the main thread as Ctrl-C would, once the batch is under way.
+    threading.Timer(0.2, _thread.interrupt_main).start()
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        det.detect_batch([image] * 3000)
+    # Stopped after the chunk in progress: well before the 15 × 200 images would have taken.
+    assert time.perf_counter() - t0 < 0.2 + 7.5 * per_200
