@@ -311,11 +311,17 @@ pub fn read_ground_truth(path: &Path, frame_times: &[f64]) -> Result<Vec<super::
                     reason: format!("line {}: expected at least 8 values", i + 1),
                 });
             }
-            poses.push(super::trajectory::Pose {
-                timestamp: v[0] * 1e-9,
-                position: nalgebra::Vector3::new(v[1], v[2], v[3]),
-                orientation: nalgebra::Vector4::new(v[4], v[5], v[6], v[7]).normalize(),
-            });
+            let pose = super::trajectory::checked_pose(
+                v[0] * 1e-9,
+                [v[1], v[2], v[3]],
+                [v[4], v[5], v[6], v[7]],
+                poses.last(),
+            )
+            .map_err(|reason| Error::Parse {
+                path: path.to_path_buf(),
+                reason: format!("line {}: {reason}", i + 1),
+            })?;
+            poses.push(pose);
         }
         return Ok(poses);
     }
@@ -405,5 +411,31 @@ mod tests {
         assert!(seq.frames[0].path.ends_with("a.png"));
         assert!((seq.frames[1].timestamp - 0.1).abs() < 1e-12);
         assert!(open(&dir.path().join("none"), Some(10.0)).is_err());
+    }
+
+    #[test]
+    fn euroc_ground_truth_is_checked_like_every_trajectory() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("data.csv");
+        let good = "1000000000,1,2,3,1,0,0,0\n2000000000,1,2,3,0,0,0,2\n";
+        std::fs::write(&csv, good).unwrap();
+        let poses = read_ground_truth(&csv, &[]).unwrap();
+        assert_eq!(poses.len(), 2);
+        assert!((poses[1].orientation.norm() - 1.0).abs() < 1e-12);
+        for (text, reason) in [
+            ("1000000000,1,2,3,0,0,0,0\n", "line 1: zero quaternion"),
+            (
+                "1000000000,1,NaN,3,1,0,0,0\n",
+                "line 1: non-finite value NaN",
+            ),
+            (
+                "2000000000,1,2,3,1,0,0,0\n1000000000,1,2,3,1,0,0,0\n",
+                "line 2: timestamp 1 is not after the previous one (2)",
+            ),
+        ] {
+            std::fs::write(&csv, text).unwrap();
+            let e = read_ground_truth(&csv, &[]).unwrap_err().to_string();
+            assert!(e.contains("data.csv") && e.contains(reason), "{e}");
+        }
     }
 }

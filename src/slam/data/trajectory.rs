@@ -75,28 +75,50 @@ pub fn read_tum(path: &Path) -> Result<Vec<Pose>> {
                 values.len()
             )));
         }
-        if let Some(v) = values.iter().find(|v| !v.is_finite()) {
-            return Err(bad(format!("non-finite value {v}")));
-        }
-        let q = Quat::new(values[7], values[4], values[5], values[6]);
-        if q.norm() < 1e-6 {
-            return Err(bad("zero quaternion".into()));
-        }
-        if let Some(prev) = poses.last() {
-            if values[0] <= prev.timestamp {
-                return Err(bad(format!(
-                    "timestamp {} is not after the previous one ({})",
-                    values[0], prev.timestamp
-                )));
-            }
-        }
-        poses.push(Pose {
-            timestamp: values[0],
-            position: Vector3::new(values[1], values[2], values[3]),
-            orientation: q.normalize(),
-        });
+        let pose = checked_pose(
+            values[0],
+            [values[1], values[2], values[3]],
+            [values[7], values[4], values[5], values[6]],
+            poses.last(),
+        )
+        .map_err(bad)?;
+        poses.push(pose);
     }
     Ok(poses)
+}
+
+/// A pose from its time, position and quaternion (w, x, y, z), checked as every trajectory
+/// reader checks it: finite values, a quaternion that is not zero, a time after `previous`'s.
+pub(crate) fn checked_pose(
+    t: f64,
+    position: [f64; 3],
+    wxyz: [f64; 4],
+    previous: Option<&Pose>,
+) -> std::result::Result<Pose, String> {
+    if let Some(v) = std::iter::once(t)
+        .chain(position)
+        .chain(wxyz)
+        .find(|v| !v.is_finite())
+    {
+        return Err(format!("non-finite value {v}"));
+    }
+    let q = Quat::new(wxyz[0], wxyz[1], wxyz[2], wxyz[3]);
+    if q.norm() < 1e-6 {
+        return Err("zero quaternion".into());
+    }
+    if let Some(prev) = previous {
+        if t <= prev.timestamp {
+            return Err(format!(
+                "timestamp {t} is not after the previous one ({})",
+                prev.timestamp
+            ));
+        }
+    }
+    Ok(Pose {
+        timestamp: t,
+        position: Vector3::new(position[0], position[1], position[2]),
+        orientation: q.normalize(),
+    })
 }
 
 /// Pairs each estimated pose with the ground-truth pose nearest in time, within `max_dt`.
