@@ -15,6 +15,20 @@ use steernav::synth::Rng;
 
 mod common;
 
+/// One LIDAR-only episode of seed 1 on `w`, its trajectory recorded.
+fn laser_episode(w: &World, cfg: &EpisodeConfig) -> steernav::nav::sim::episode::Episode {
+    run(
+        w,
+        cfg,
+        Mode::Laser,
+        &mut VisualObstacleModel::default(),
+        None,
+        1,
+        true,
+    )
+    .unwrap()
+}
+
 const WORLD: &str = r#"
 size = [8.0, 6.0]
 start = [1.0, 3.0, 0.0]
@@ -94,16 +108,7 @@ fn lidar_misses_low_obstacles_that_the_camera_shows() {
 fn episodes_reach_the_goal_around_a_visible_obstacle() {
     let w: World = toml::from_str(WORLD).unwrap();
     let cfg = EpisodeConfig::default();
-    let e = run(
-        &w,
-        &cfg,
-        Mode::Laser,
-        &mut VisualObstacleModel::default(),
-        None,
-        1,
-        true,
-    )
-    .unwrap();
+    let e = laser_episode(&w, &cfg);
     assert_eq!(
         e.outcome,
         Outcome::Reached,
@@ -290,16 +295,7 @@ fn the_goal_is_reached_without_circling_past_a_pillar_near_it() {
         (4.0, 0.3),
     ] {
         let w = pillar_world(x, y);
-        let e = run(
-            &w,
-            &cfg,
-            Mode::Laser,
-            &mut VisualObstacleModel::default(),
-            None,
-            1,
-            true,
-        )
-        .unwrap();
+        let e = laser_episode(&w, &cfg);
         assert_eq!(
             e.outcome,
             Outcome::Reached,
