@@ -1,8 +1,9 @@
 // Non-maximum suppression in space (3x3) and across adjacent scales (3x3 in each, around the
-// nearest sample of their grid), response threshold, border margin, sub-pixel quadratic fit, and
-// compaction of the survivors with an atomic counter (paper section 2.2.2: local maxima of R
-// in scale and space). Each scale lives on its own grid (sample (i, j) at pixel (i, j)*step).
-// CPU twin: suppress, peak_offset and parabola_offset in src/features/harris.rs.
+// nearest sample of their grid), response threshold, border margin, sub-pixel quadratic fit,
+// the sub-scale offset (the parabola through the adjacent scales' responses), and compaction
+// of the survivors with an atomic counter (paper section 2.2.2: local maxima of R in scale
+// and space). Each scale lives on its own grid (sample (i, j) at pixel (i, j)*step).
+// CPU twin: suppress, peak_offset and parabola_offset in src/features/harris/cpu.rs.
 
 struct Params {
     width: u32,       // this scale's grid
@@ -53,7 +54,7 @@ struct Candidate {
     x: f32,
     y: f32,
     response: f32,
-    packed: u32,  // scale << 16 | orientation
+    packed: u32,  // scale << 16 | sub-scale offset (signed byte) << 8 | orientation
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -118,6 +119,33 @@ fn adjacent_max(which: u32, t: u32, px: u32, py: u32) -> f32 {
     return m;
 }
 
+// The sample of the previous (which = 0) or next (which = 1) scale nearest pixel (px, py), for
+// orientation t: the centre adjacent_max visits first.
+fn adjacent_centre(which: u32, t: u32, px: u32, py: u32) -> f32 {
+    var w = params.prev_width;
+    var h = params.prev_height;
+    var s = params.prev_step;
+    if (which == 1u) {
+        w = params.next_width;
+        h = params.next_height;
+        s = params.next_step;
+    }
+    let cx = min((px + s / 2u) / s, w - 1u);
+    let cy = min((py + s / 2u) / s, h - 1u);
+    let n = t * w * h + cy * w + cx;
+    if (which == 0u) {
+        return prev[n];
+    }
+    return next[n];
+}
+
+// CPU twin: Candidate::pack_with_offset. The sub-scale offset (scale steps, within ±0.5) as a
+// signed byte in 1/254 steps, halves rounded up, in bits 8-15.
+fn pack(scale: u32, t: u32, offset: f32) -> u32 {
+    let q = i32(floor(clamp(offset, -0.5, 0.5) * 254.0 + 0.5));
+    return (scale << 16u) | ((u32(q) & 0xffu) << 8u) | (t & 0xffu);
+}
+
 @compute @workgroup_size(16, 16, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let m = params.margin;
@@ -157,13 +185,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         if (keep) {
             let o = peak_offset(i, w);
+            // The vertex of the parabola through the adjacent scales' responses here.
+            var scale_offset = 0.0;
+            if (params.has_prev == 1u && params.has_next == 1u) {
+                scale_offset = parabola_offset(adjacent_centre(0u, t, px, py), v,
+                                               adjacent_centre(1u, t, px, py));
+            }
             let slot = atomicAdd(&stats.count, 1u);
             if (slot < settings.capacity) {
                 // In image pixels: the sample's index on the image's grid, then the offset.
                 let g = f32(params.step);
                 let ix = f32(gid.x + settings.origin_x / params.step);
                 let iy = f32(gid.y + settings.origin_y / params.step);
-                candidates[slot] = Candidate((ix + o.x) * g, (iy + o.y) * g, v, (params.scale << 16u) | t);
+                candidates[slot] = Candidate((ix + o.x) * g, (iy + o.y) * g, v, pack(params.scale, t, scale_offset));
             }
         }
     }

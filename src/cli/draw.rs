@@ -48,14 +48,15 @@ fn circle(img: &mut image::RgbImage, (cx, cy): (f32, f32), r: f32, c: [u8; 3]) {
     }
 }
 
-/// Renders the keypoints over the frame (colour by scale rank among `scales`).
+/// Renders the keypoints over the frame (colour by the rank among `scales` of the sampled
+/// scale nearest each keypoint's, in log scale).
 pub fn render(frame: &Frame, keypoints: &[Keypoint], scales: &[f32]) -> image::RgbImage {
     let mut img = image::RgbImage::from_raw(frame.width, frame.height, frame.rgb.clone())
         .expect("frame holds width*height RGB pixels");
     for k in keypoints {
-        let rank = scales
-            .iter()
-            .position(|&s| (s - k.scale).abs() < 1e-4)
+        let distance = |s: f32| (s.ln() - k.scale.ln()).abs();
+        let rank = (0..scales.len())
+            .min_by(|&a, &b| distance(scales[a]).total_cmp(&distance(scales[b])))
             .unwrap_or(0);
         let c = PALETTE[rank.min(PALETTE.len() - 1)];
         let r = 3.0 * k.scale;

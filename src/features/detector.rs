@@ -422,7 +422,8 @@ impl Detector {
             .map(|c| Keypoint {
                 x: c.x,
                 y: c.y,
-                scale: self.plan.scales[c.scale_index].sigma_d,
+                scale: self.plan.scales[c.scale_index].sigma_d
+                    * self.plan.config.scale_step.powf(c.scale_offset),
                 angle: self.plan.orientations[c.orientation_index],
                 response: c.response,
                 descriptor: Vec::new(),

@@ -35,6 +35,9 @@ pub struct Cluster {
     pub strength: f32,
     /// Scale index with the largest summed member response.
     pub scale_index: usize,
+    /// Response-weighted mean sub-scale offset of the members at that scale, in scale steps
+    /// within ±0.5: the cluster's characteristic scale is σ_D(scale_index)·scale_step^offset.
+    pub scale_offset: f32,
     /// Orientation index with the largest summed member response.
     pub orientation_index: usize,
     /// Number of member candidates.
@@ -51,6 +54,8 @@ struct Stats {
     strength: f32,
     count: usize,
     by_scale: Vec<f64>,
+    /// Per scale, Σ w·(sub-scale offset) of its members.
+    offset_by_scale: Vec<f64>,
     by_orientation: Vec<f64>,
 }
 
@@ -64,6 +69,7 @@ impl Stats {
             strength: f32::MIN,
             count: 0,
             by_scale: vec![0.0; scales],
+            offset_by_scale: vec![0.0; scales],
             by_orientation: vec![0.0; orientations],
         }
     }
@@ -78,6 +84,7 @@ impl Stats {
             .max(c.response * plan.scales[c.scale_index()].rank_weight);
         self.count += 1;
         self.by_scale[c.scale_index()] += w;
+        self.offset_by_scale[c.scale_index()] += w * c.scale_offset() as f64;
         self.by_orientation[c.orientation_index()] += w;
     }
     fn absorb(&mut self, o: &Stats) {
@@ -90,9 +97,20 @@ impl Stats {
         for (a, b) in self.by_scale.iter_mut().zip(&o.by_scale) {
             *a += b;
         }
+        for (a, b) in self.offset_by_scale.iter_mut().zip(&o.offset_by_scale) {
+            *a += b;
+        }
 
         for (a, b) in self.by_orientation.iter_mut().zip(&o.by_orientation) {
             *a += b;
+        }
+    }
+    /// The response-weighted mean sub-scale offset of the members at scale `s`.
+    fn offset_at(&self, s: usize) -> f32 {
+        if self.by_scale[s] > 0.0 {
+            (self.offset_by_scale[s] / self.by_scale[s]) as f32
+        } else {
+            0.0
         }
     }
     fn centre(&self) -> (f32, f32) {
@@ -538,6 +556,7 @@ fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan, limit: usize) -> Vec<Cl
             response: total.max,
             strength: total.strength,
             scale_index,
+            scale_offset: total.offset_at(scale_index),
             orientation_index: argmax(&total.by_orientation),
             members: total.count,
         });

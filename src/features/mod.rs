@@ -29,15 +29,26 @@ crate::gpu::layout::gpu_struct! {
         pub y: f32,
         /// Scale-normalised Harris response (eq 8).
         pub response: f32,
-        /// Scale index in the high 16 bits, orientation index in the low 16 bits.
+        /// Scale index in the high 16 bits, the sub-scale offset (a signed byte, in 1/254 of a
+        /// scale step) in bits 8–15, orientation index in the low 8 bits.
         pub packed: u32,
     }
 }
 
+/// Quantisation of a candidate's sub-scale offset: ±0.5 scale steps map to ±127.
+const SCALE_OFFSET_UNITS: f32 = 254.0;
+
 impl Candidate {
-    /// Packs a scale and an orientation index.
+    /// Packs a scale and an orientation index (no sub-scale offset).
     pub fn pack(scale: usize, orientation: usize) -> u32 {
-        ((scale as u32) << 16) | orientation as u32
+        Self::pack_with_offset(scale, orientation, 0.0)
+    }
+    /// Packs a scale index, an orientation index (below 256) and the sub-scale offset of the
+    /// peak across scales, in scale steps within ±0.5 (quantised to 1/254).
+    pub fn pack_with_offset(scale: usize, orientation: usize, offset: f32) -> u32 {
+        // Halves round up, as `shaders/harris_nms.wgsl` rounds them.
+        let q = (offset.clamp(-0.5, 0.5) * SCALE_OFFSET_UNITS + 0.5).floor() as i32 as i8 as u8;
+        ((scale as u32) << 16) | ((q as u32) << 8) | (orientation as u32 & 0xff)
     }
     /// Index of the detection scale.
     pub fn scale_index(&self) -> usize {
@@ -45,7 +56,12 @@ impl Candidate {
     }
     /// Index of the steered orientation.
     pub fn orientation_index(&self) -> usize {
-        (self.packed & 0xffff) as usize
+        (self.packed & 0xff) as usize
+    }
+    /// Offset of the response's peak across scales from this scale, in scale steps within
+    /// ±0.5 (the vertex of the parabola through the responses at the adjacent scales).
+    pub fn scale_offset(&self) -> f32 {
+        ((self.packed >> 8) & 0xff) as u8 as i8 as f32 / SCALE_OFFSET_UNITS
     }
 }
 
@@ -73,7 +89,9 @@ pub struct Keypoint {
     pub x: f32,
     /// Sub-pixel row.
     pub y: f32,
-    /// Differentiation scale σ_D of the scale that dominates the cluster, in pixels.
+    /// Characteristic scale, in pixels of σ_D: the σ_D of the scale that dominates the
+    /// cluster, moved by its members' sub-scale offset (the peak of the response across the
+    /// adjacent scales), so it lies within half a scale step of a sampled σ_D.
     pub scale: f32,
     /// Dominant steered orientation of the cluster's members, radians in [0, π).
     pub angle: f32,

@@ -400,8 +400,10 @@ struct SharedOut(*mut f32);
 unsafe impl Sync for SharedOut {}
 
 /// Non-maximum suppression in space (3×3) and across adjacent scales (3×3 each, around the
-/// nearest sample of their grid), threshold, border margin and the 3×3 quadratic fit
-/// ([`peak_offset`]) for the sub-pixel position, for the samples whose pixel row lies in
+/// nearest sample of their grid), threshold, border margin, the 3×3 quadratic fit
+/// ([`peak_offset`]) for the sub-pixel position and the parabola through the adjacent scales'
+/// responses at the nearest samples ([`parabola_offset`]) for the sub-scale offset (the
+/// characteristic scale between the sampled ones), for the samples whose pixel row lies in
 /// `pixel_rows`. `bands[s]` must hold every row of scale s that these samples' suppression
 /// reads. Candidates come out in pixel coordinates.
 fn suppress(
@@ -440,6 +442,13 @@ fn suppress(
                     row(sc, t, ny)[nx] <= v
                 })
             };
+            // Scale sc's sample nearest pixel (px, py): the centre `across` compares first.
+            let centre = |sc: usize, px: usize, py: usize| {
+                let (w, h) = grids[sc];
+                let gs = plan.scales[sc].step as usize;
+                let (cx, cy) = ((px + gs / 2) / gs, (py + gs / 2) / gs);
+                row(sc, t, cy.min(h - 1))[cx.min(w - 1)]
+            };
             let mut out = Vec::new();
             if gw <= 2 * m || gh <= 2 * m {
                 return out.into_iter();
@@ -474,11 +483,16 @@ fn suppress(
                             [mid[x - 1], v, mid[x + 1]],
                             [down[x - 1], down[x], down[x + 1]],
                         );
+                        let offset = if s == 0 || s + 1 == scales {
+                            0.0
+                        } else {
+                            parabola_offset(centre(s - 1, px, py), v, centre(s + 1, px, py))
+                        };
                         out.push(Candidate {
                             x: (x as f32 + ox) * g as f32,
                             y: (y as f32 + oy) * g as f32,
                             response: v,
-                            packed: Candidate::pack(s, t),
+                            packed: Candidate::pack_with_offset(s, t, offset),
                         });
                     }
                 }

@@ -1,0 +1,80 @@
+//! Scale selection: a keypoint's scale follows a zoom of the image, between the sampled scales
+//! too (the sub-scale offset of the peak across scales).
+
+mod common;
+
+use steernav::features::{DetectorConfig, Keypoint};
+use steernav::image::Frame;
+use steernav::synth::textured_scene;
+
+/// The frame magnified `z` times about its origin (bilinear): source pixel p lands at z·p.
+fn magnified(frame: &Frame, z: f64) -> Frame {
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let (ow, oh) = ((w as f64 * z) as usize, (h as f64 * z) as usize);
+    let mut rgb = vec![0u8; 3 * ow * oh];
+    for y in 0..oh {
+        for x in 0..ow {
+            let (sx, sy) = (x as f64 / z, y as f64 / z);
+            let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
+            let (fx, fy) = (sx - x0 as f64, sy - y0 as f64);
+            for k in 0..3 {
+                let p = |xx: usize, yy: usize| {
+                    frame.rgb[3 * (yy.min(h - 1) * w + xx.min(w - 1)) + k] as f64
+                };
+                let v = p(x0, y0) * (1.0 - fx) * (1.0 - fy)
+                    + p(x0 + 1, y0) * fx * (1.0 - fy)
+                    + p(x0, y0 + 1) * (1.0 - fx) * fy
+                    + p(x0 + 1, y0 + 1) * fx * fy;
+                rgb[3 * (y * ow + x) + k] = v.round() as u8;
+            }
+        }
+    }
+    Frame::from_rgb(ow as u32, oh as u32, rgb).unwrap()
+}
+
+/// |log2(scale ratio / z)| of every keypoint of `a` whose magnified position has a keypoint
+/// of `b` within 1.5 px, with each scale passed through `scale`.
+fn scale_errors(a: &[Keypoint], b: &[Keypoint], z: f32, scale: impl Fn(f32) -> f32) -> Vec<f32> {
+    a.iter()
+        .filter_map(|p| {
+            let (x, y) = (p.x * z, p.y * z);
+            let q = b.iter().min_by(|u, v| {
+                let d = |k: &&Keypoint| (k.x - x).hypot(k.y - y);
+                d(u).total_cmp(&d(v))
+            })?;
+            ((q.x - x).hypot(q.y - y) <= 1.5)
+                .then(|| (scale(q.scale) / (z * scale(p.scale))).log2().abs())
+        })
+        .collect()
+}
+
+fn median(mut v: Vec<f32>) -> f32 {
+    v.sort_by(f32::total_cmp);
+    v[v.len() / 2]
+}
+
+#[test]
+fn keypoint_scales_follow_a_zoom_between_the_sampled_scales() {
+    let config = DetectorConfig::default();
+    let step = config.scale_step;
+    let detector = common::cpu_detector(&config);
+    let frame = textured_scene(320, 240, 4);
+    // A quarter octave: halfway between two sampled scales, where rounding to them errs most.
+    let z = 2f32.powf(0.25);
+    let zoomed = magnified(&frame, z as f64);
+    let a = detector.detect(&frame).unwrap().keypoints;
+    let b = detector.detect(&zoomed).unwrap().keypoints;
+    // The scales rounded to the sampled ones: what the keypoints carried before the offset.
+    let sampled = |s: f32| step.powf((s / config.sigma0).log(step).round()) * config.sigma0;
+    let continuous = scale_errors(&a, &b, z, |s| s);
+    let rounded = scale_errors(&a, &b, z, sampled);
+    println!("{} of {}", continuous.len(), a.len());
+    assert!(
+        continuous.len() >= 40,
+        "{} correspondences",
+        continuous.len()
+    );
+    let (c, r) = (median(continuous), median(rounded));
+    println!("median |log2 scale error|: continuous {c:.3}, rounded {r:.3}");
+    assert!(c < 0.8 * r, "continuous {c} against rounded {r}");
+}
