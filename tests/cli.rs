@@ -600,6 +600,23 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
             .arg(kitti.join("poses.txt")),
     );
     assert!(String::from_utf8_lossy(&out.stdout).contains("20 poses matched"));
+    // A --times file must give one timestamp per pose row, and is named when it does not.
+    let times = dir.path().join("short_times.txt");
+    std::fs::write(&times, "0.0\n0.1\n0.2\n").unwrap();
+    let out = steernav()
+        .arg("slam-eval")
+        .arg(&traj)
+        .arg(kitti.join("poses.txt"))
+        .arg("--times")
+        .arg(&times)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        stderr.contains("short_times.txt") && stderr.contains("3 timestamps for the 20 pose rows"),
+        "{stderr}"
+    );
     // A short poses.txt is refused before the run, naming the file.
     std::fs::write(kitti.join("poses.txt"), rows[..5].join("\n") + "\n").unwrap();
     let out = run(&[]);

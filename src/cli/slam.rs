@@ -448,10 +448,7 @@ impl Input {
 
     fn ground_truth_poses(&self, path: &Path) -> anyhow::Result<Vec<Pose>> {
         Ok(match self {
-            Input::Folder(seq) => {
-                let times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
-                sequence::read_ground_truth(path, &times)?
-            }
+            Input::Folder(seq) => sequence::read_ground_truth(path, &seq.ground_truth_times())?,
             Input::Bag(..) => {
                 if kitti::looks_like_poses(path) {
                     bail!(

@@ -36,9 +36,23 @@ pub fn run(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
     if !(cmd.max_dt.is_finite() && cmd.max_dt > 0.0) {
         bail!("--max-dt: {} must be finite and > 0", cmd.max_dt);
     }
-    let kitti_times = |rows: usize| -> anyhow::Result<Vec<f64>> {
+    // One timestamp per pose row: a times file with more or fewer rows than the trajectory
+    // would pair every row with another frame's time, or leave rows out.
+    let kitti_times = |rows: usize, poses: &Path| -> anyhow::Result<Vec<f64>> {
         match &cmd.times {
-            Some(path) => Ok(kitti::read_times(path)?),
+            Some(path) => {
+                let times = kitti::read_times(path)?;
+                if times.len() != rows {
+                    bail!(
+                        "{}: {} timestamps for the {} pose rows of {}",
+                        path.display(),
+                        times.len(),
+                        rows,
+                        poses.display()
+                    );
+                }
+                Ok(times)
+            }
             None => {
                 if !(cmd.fps.is_finite() && (1e-5..=1e6).contains(&cmd.fps)) {
                     bail!(
@@ -57,7 +71,7 @@ pub fn run(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
                 .lines()
                 .filter(|l| !l.trim().is_empty())
                 .count();
-            Ok(kitti::read_poses(path, &kitti_times(rows)?)?)
+            Ok(kitti::read_poses(path, &kitti_times(rows, path)?)?)
         } else {
             Ok(sequence::read_ground_truth(path, &[])?)
         }

@@ -43,18 +43,33 @@ fn numbers(path: &Path, line_no: usize, line: &str) -> Result<Vec<f64>> {
 pub fn read_calibration(path: &Path, width: u32, height: u32) -> Result<PinholeCamera> {
     let text = read(path)?;
     let mut first = None;
+    let mut labels: Vec<&str> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() {
             continue;
         }
         let labelled_p0 = line.starts_with("P0:");
+        if let Some((label, _)) = line.split_once(':') {
+            labels.push(label.trim());
+        }
         if first.is_none() || labelled_p0 {
             first = Some((i + 1, line.to_string()));
         }
         if labelled_p0 {
             break;
         }
+    }
+    // Labelled rows without P0 (a file of P2, P3 or Tr only) would otherwise give the first
+    // row, another camera's.
+    if !labels.is_empty() && !labels.contains(&"P0") {
+        return Err(Error::Parse {
+            path: path.to_path_buf(),
+            reason: format!(
+                "labelled rows ({}) but no `P0:` row, the left grey camera's",
+                labels.join(", ")
+            ),
+        });
     }
     let (line_no, line) = first.ok_or_else(|| Error::Parse {
         path: path.to_path_buf(),
@@ -145,6 +160,13 @@ pub fn read_poses(path: &Path, timestamps: &[f64]) -> Result<Vec<Pose>> {
         if ((r.transpose() * r) - Matrix3::identity()).amax() > 1e-3 {
             return Err(bad(path, i + 1, "the 3×3 part is not a rotation"));
         }
+        if r.determinant() < 0.0 {
+            return Err(bad(
+                path,
+                i + 1,
+                "the 3×3 part is a reflection (determinant −1), not a rotation",
+            ));
+        }
         poses.push(Pose {
             timestamp: timestamps[poses.len()],
             position: Vector3::new(v[3], v[7], v[11]),
@@ -216,6 +238,18 @@ mod tests {
             message.contains("short.txt") && message.contains("line 1"),
             "{message}"
         );
+        // Labelled rows without P0 are refused rather than read as P0.
+        let colour = dir.path().join("colour.txt");
+        std::fs::write(&colour, format!("P2: {row}\nP3: {row}\n")).unwrap();
+        let message = read_calibration(&colour, 1241, 376)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("colour.txt")
+                && message.contains("P2, P3")
+                && message.contains("no `P0:`"),
+            "{message}"
+        );
     }
 
     #[test]
@@ -244,6 +278,13 @@ mod tests {
         let message = read_poses(&path, &[0.0]).unwrap_err().to_string();
         assert!(
             message.contains("line 1") && message.contains("12 values"),
+            "{message}"
+        );
+        // A reflection is orthogonal too, and refused as one.
+        std::fs::write(&path, "1 0 0 0 0 1 0 0 0 0 -1 0\n").unwrap();
+        let message = read_poses(&path, &[0.0]).unwrap_err().to_string();
+        assert!(
+            message.contains("line 1") && message.contains("reflection"),
             "{message}"
         );
         let times = dir.path().join("times.txt");

@@ -28,12 +28,27 @@ pub struct Sequence {
     pub missing: Vec<PathBuf>,
     /// A ground-truth trajectory found beside the frames (TUM format, or KITTI poses.txt).
     pub ground_truth: Option<PathBuf>,
+    /// KITTI: the time of every row of `times.txt` (or of every frame number up to the last,
+    /// at the frame rate), which is also the time of the same row of `poses.txt`: frame
+    /// `000042.png` is row 42 whatever frames are missing. Empty for the other layouts.
+    pub row_times: Vec<f64>,
     /// A calibration found beside the frames (EuRoC sensor.yaml, KITTI calib.txt, calib.toml
     /// beside a TUM rgb.txt).
     pub calibration: Option<PathBuf>,
 }
 
 impl Sequence {
+    /// The times of the ground truth's rows, for [`read_ground_truth`]: a KITTI `poses.txt`
+    /// row belongs to the frame of its number ([`Sequence::row_times`]); other layouts pair
+    /// by timestamp, and get the frames' times.
+    pub fn ground_truth_times(&self) -> Vec<f64> {
+        if self.row_times.is_empty() {
+            self.frames.iter().map(|f| f.timestamp).collect()
+        } else {
+            self.row_times.clone()
+        }
+    }
+
     /// The camera the frames were taken with: from `calibration` when given, else from the
     /// sequence's own file ([`Sequence::calibration`]). The format follows the extension — a
     /// KITTI `calib.txt` (row P0; the image size from the first frame), a EuRoC `sensor.yaml`,
@@ -107,6 +122,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
             frames,
             missing: Vec::new(),
             ground_truth,
+            row_times: Vec::new(),
             // `slam-synth` writes its calibration here.
             calibration: Some(dir.join("calib.toml")).filter(|p| p.is_file()),
         }
@@ -126,6 +142,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
             frames,
             missing: Vec::new(),
             ground_truth,
+            row_times: Vec::new(),
             calibration: Some(cam.join("sensor.yaml")).filter(|p| p.is_file()),
         }
     } else if let Some(images) = ["image_0", "image_l"]
@@ -133,21 +150,33 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
         .map(|d| dir.join(d))
         .find(|d| d.is_dir())
     {
-        let files = image_files(&images)?;
+        let (numbers, files): (Vec<usize>, Vec<PathBuf>) =
+            kitti_numbered(image_files(&images)?)?.into_iter().unzip();
+        let rows = numbers.iter().max().map_or(0, |&n| n + 1);
         let times_path = dir.join("times.txt");
-        let timestamps: Vec<f64> = if times_path.is_file() {
+        let row_times: Vec<f64> = if times_path.is_file() {
             let times = super::kitti::read_times(&times_path)?;
-            if times.len() < files.len() {
+            if times.len() < rows {
+                let last = numbers
+                    .iter()
+                    .position(|&n| n + 1 == rows)
+                    .expect("the last");
                 return Err(Error::Parse {
                     path: times_path,
-                    reason: format!("{} timestamps for {} frames", times.len(), files.len()),
+                    reason: format!(
+                        "{} timestamps, but frame {} is number {}",
+                        times.len(),
+                        files[last].display(),
+                        rows - 1
+                    ),
                 });
             }
-            times
+            times[..rows].to_vec()
         } else {
             let fps = checked_fps(fps.unwrap_or(KITTI_FPS))?;
-            (0..files.len()).map(|i| i as f64 / fps).collect()
+            (0..rows).map(|i| i as f64 / fps).collect()
         };
+        let timestamps: Vec<f64> = numbers.iter().map(|&n| row_times[n]).collect();
         let calib = dir.join("calib.txt");
         if !calib.is_file() {
             return Err(Error::Io {
@@ -167,6 +196,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
                 .collect(),
             missing: Vec::new(),
             ground_truth: Some(dir.join("poses.txt")).filter(|p| p.is_file()),
+            row_times,
             calibration: Some(calib),
         }
     } else {
@@ -184,6 +214,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
                 .collect(),
             missing: Vec::new(),
             ground_truth,
+            row_times: Vec::new(),
             calibration: None,
         }
     };
@@ -219,6 +250,31 @@ fn checked_fps(fps: f64) -> Result<f64> {
         ));
     }
     Ok(fps)
+}
+
+/// Largest KITTI frame number read from a file name: beyond it (a stray file) the row table
+/// would grow without bound, so the files are numbered by position instead.
+const MAX_KITTI_FRAME: usize = 10_000_000;
+
+/// Each KITTI image with its frame number, the file stem (`000042.png` is 42), in number
+/// order; two files with one number are refused. When a stem is not a number, the files are
+/// numbered by their position in name order instead (with a warning).
+fn kitti_numbered(files: Vec<PathBuf>) -> Result<Vec<(usize, PathBuf)>> {
+    let number = |f: &PathBuf| f.file_stem()?.to_str()?.parse::<usize>().ok();
+    let parsed: Option<Vec<usize>> = files.iter().map(number).collect();
+    let Some(numbers) = parsed.filter(|n| n.iter().all(|&k| k <= MAX_KITTI_FRAME)) else {
+        log::warn!("KITTI images not all named by frame number (000042.png): numbered by position");
+        return Ok(files.into_iter().enumerate().collect());
+    };
+    let mut numbered: Vec<(usize, PathBuf)> = numbers.into_iter().zip(files).collect();
+    numbered.sort();
+    if let Some(pair) = numbered.windows(2).find(|p| p[0].0 == p[1].0) {
+        return Err(Error::Parse {
+            path: pair[1].1.clone(),
+            reason: format!("frame number {} is also {}", pair[1].0, pair[0].1.display()),
+        });
+    }
+    Ok(numbered)
 }
 
 /// Image files of a folder, sorted by name.
@@ -382,7 +438,10 @@ mod tests {
         assert!(seq.ground_truth.is_none());
         std::fs::write(dir.path().join("times.txt"), "0.0\n0.05\n").unwrap();
         let message = open(dir.path(), None).unwrap_err().to_string();
-        assert!(message.contains("2 timestamps for 3 frames"), "{message}");
+        assert!(
+            message.contains("2 timestamps, but frame") && message.contains("number 2"),
+            "{message}"
+        );
         std::fs::write(dir.path().join("times.txt"), "0.0\n0.05\n0.11\n").unwrap();
         let seq = open(dir.path(), None).unwrap();
         assert_eq!(seq.frames[2].timestamp, 0.11);
@@ -395,6 +454,65 @@ mod tests {
             .to_string();
         assert!(
             message.contains("poses.txt") && message.contains("2 pose rows for 3 frames"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn kitti_frames_take_the_row_of_their_file_number() {
+        let dir = tempfile::tempdir().unwrap();
+        let images = dir.path().join("image_0");
+        std::fs::create_dir(&images).unwrap();
+        // Frame 2 is missing and a directory takes the name of frame 3: frame 4 is still row 4.
+        for name in ["000000.png", "000001.png", "000004.png"] {
+            std::fs::write(images.join(name), b"x").unwrap();
+        }
+        std::fs::create_dir(images.join("000003.png")).unwrap();
+        std::fs::write(
+            dir.path().join("calib.txt"),
+            "P0: 700 0 600 0 0 700 180 0 0 0 1 0
+",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("times.txt"),
+            "0.0
+0.1
+0.2
+0.3
+0.4
+0.5
+",
+        )
+        .unwrap();
+        let rows: String = (0..6)
+            .map(|i| {
+                format!(
+                    "1 0 0 {i} 0 1 0 0 0 0 1 0
+"
+                )
+            })
+            .collect();
+        std::fs::write(dir.path().join("poses.txt"), rows).unwrap();
+        let seq = open(dir.path(), None).unwrap();
+        let times: Vec<f64> = seq.frames.iter().map(|f| f.timestamp).collect();
+        assert_eq!(times, [0.0, 0.1, 0.4]);
+        let truth = read_ground_truth(
+            seq.ground_truth.as_ref().unwrap(),
+            &seq.ground_truth_times(),
+        )
+        .unwrap();
+        let at = |t: f64| truth.iter().find(|p| p.timestamp == t).unwrap().position.x;
+        assert_eq!(at(0.4), 4.0);
+        // Without times.txt the frame rate numbers them the same way.
+        std::fs::remove_file(dir.path().join("times.txt")).unwrap();
+        let seq = open(dir.path(), None).unwrap();
+        assert!((seq.frames[2].timestamp - 0.4).abs() < 1e-12);
+        // Two files with one number are refused, naming both.
+        std::fs::write(images.join("4.png"), b"x").unwrap();
+        let message = open(dir.path(), None).unwrap_err().to_string();
+        assert!(
+            message.contains("frame number 4") && message.contains("000004.png"),
             "{message}"
         );
     }
