@@ -236,3 +236,34 @@ fn missing_readings_are_dropped_not_obstacles() {
     assert_eq!(r.free_fraction, 1.0, "{r:?}");
     assert!(r.mean_abs_deviation_deg < 5.0, "{r:?}");
 }
+
+#[test]
+fn logs_without_front_laser_lines_say_what_they_hold_and_odd_bytes_outside_them_pass() {
+    let rear = "RLASER 3 1 2 3 0 0 0 0 0 0 1.0 host 1.0\nODOM 0 0 0 0 0 0 1.0 host 1.0\n";
+    let e = parse(Path::new("rear.log"), rear.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("rear.log") && e.contains("FLASER and ROBOTLASER1") && e.contains("1 rear"),
+        "{e}"
+    );
+    let e = parse(Path::new("empty.log"), &b""[..])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("empty.log") && e.contains("has none"), "{e}");
+    // A Latin-1 comment does not stop the log; a bad byte inside a laser line names its line.
+    let mut log = b"# recorded in K\xf6ln\n".to_vec();
+    log.extend_from_slice(corridor_log().as_bytes());
+    let scans = parse(Path::new("latin1.log"), &log[..]).unwrap();
+    assert_eq!(scans.len(), 120);
+    let mut broken = corridor_log().into_bytes();
+    let at = broken.iter().position(|&b| b == b'.').unwrap();
+    broken[at] = 0xff;
+    let e = parse(Path::new("broken.log"), &broken[..])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("broken.log") && e.contains("line 4") && e.contains("not a number"),
+        "{e}"
+    );
+}

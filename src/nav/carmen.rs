@@ -38,7 +38,7 @@ pub struct Scan {
     pub time: f64,
 }
 
-/// Reads every FLASER scan of a log file (gzip detected by its magic bytes).
+/// Reads the front-laser scans of a log file (see [`parse`]; gzip detected by its magic bytes).
 pub fn read_log(path: &Path) -> Result<Vec<Scan>> {
     let io = |source| Error::Io {
         path: path.to_path_buf(),
@@ -56,17 +56,42 @@ pub fn read_log(path: &Path) -> Result<Vec<Scan>> {
     parse(path, reader)
 }
 
-/// Parses the laser lines of a log (see the module docs); other lines are skipped, malformed
-/// laser lines are errors naming the line.
-pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
+/// Longest line read from a log: a ROBOTLASER1 line of a 100,000-beam scanner holds well
+/// under 2 MB; past this the input is not a log (a stream without line breaks).
+const MAX_LINE_BYTES: usize = 16 << 20;
+
+/// Parses the laser lines of a log (see the module docs); other lines are skipped, whatever
+/// bytes they hold (a comment in Latin-1), malformed laser lines are errors naming the line.
+/// A log without FLASER or ROBOTLASER1 lines is an error that says what it holds instead.
+pub fn parse(path: &Path, mut reader: impl BufRead) -> Result<Vec<Scan>> {
     let (mut flaser, mut robotlaser) = (Vec::new(), Vec::new());
-    for (no, line) in reader.lines().enumerate() {
-        let line = line.map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+    let mut rear = 0usize;
+    let mut bytes = Vec::new();
+    for no in 0.. {
+        bytes.clear();
+        let read = (&mut reader)
+            .take(MAX_LINE_BYTES as u64 + 1)
+            .read_until(b'\n', &mut bytes)
+            .map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+        if read == 0 {
+            break;
+        }
+        if bytes.len() > MAX_LINE_BYTES {
+            return Err(Error::Parse {
+                path: path.to_path_buf(),
+                reason: format!("line {}: longer than {MAX_LINE_BYTES} bytes", no + 1),
+            });
+        }
+        // Laser lines are ASCII; other lines are skipped, so their bytes need not be UTF-8.
+        let line = String::from_utf8_lossy(&bytes);
         let mut it = line.split_whitespace();
         let kind = it.next();
+        if matches!(kind, Some("RLASER" | "RAWLASER2" | "RAWLASER4")) {
+            rear += 1;
+        }
         if !matches!(kind, Some("FLASER" | "ROBOTLASER1")) {
             continue;
         }
@@ -80,6 +105,21 @@ pub fn parse(path: &Path, reader: impl BufRead) -> Result<Vec<Scan>> {
         } else {
             robotlaser.push(robotlaser_scan(&fields, &bad)?);
         }
+    }
+    if flaser.is_empty() && robotlaser.is_empty() {
+        let holds = if rear > 0 {
+            format!(
+                "{rear} rear-laser or raw-laser lines (RLASER, RAWLASER2, RAWLASER4), which are not read"
+            )
+        } else {
+            "none".to_string()
+        };
+        return Err(Error::Parse {
+            path: path.to_path_buf(),
+            reason: format!(
+                "no front-laser scan: the replay reads FLASER and ROBOTLASER1 lines, and this log has {holds}"
+            ),
+        });
     }
     Ok(if robotlaser.is_empty() {
         flaser
