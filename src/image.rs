@@ -178,6 +178,7 @@ impl Frame {
         let format = image::guess_format(&head)
             .or_else(|_| image::ImageFormat::from_path(path))
             .map_err(image_err)?;
+        let file_len = file.metadata().map_err(io)?.len();
         file.rewind().map_err(io)?;
         let mut reader = image::ImageReader::with_format(BufReader::new(file), format);
         let (width, height) = reader.into_dimensions().map_err(image_err)?;
@@ -198,7 +199,7 @@ impl Frame {
             BufReader::new(crate::error::open_input(path)?),
             format,
         );
-        let limits = decode_limits(width, height);
+        let limits = decode_limits(width, height, file_len);
         let max_alloc = limits.max_alloc;
         reader.limits(limits);
         let img = reader.decode().map_err(|e| match e {
@@ -271,14 +272,17 @@ impl Frame {
 /// Pixel budget of [`Frame::load`]: about 100 megapixels.
 pub const DEFAULT_MAX_PIXELS: u64 = 100_000_000;
 
-/// Decoder limits for an image whose header says `width`×`height`: sides as declared, and
-/// allocations bounded by what such an image needs (16-bit RGBA at most), so a header that
-/// lies cannot make the decoder allocate more.
-fn decode_limits(width: u32, height: u32) -> image::Limits {
+/// Decoder limits for an image whose header says `width`×`height`, in a file of `file_len`
+/// bytes: sides as declared, and allocations bounded by what such an image needs (16-bit RGBA
+/// at most) plus six times the file's own length, what the PNG decoder counts for metadata
+/// (an XMP or ICC chunk: each doubling of its chunk buffer counted anew, then its text): a
+/// header that lies cannot make the decoder allocate more, and a small image with large
+/// metadata still decodes.
+fn decode_limits(width: u32, height: u32, file_len: u64) -> image::Limits {
     let mut l = image::Limits::default();
     l.max_image_width = Some(width);
     l.max_image_height = Some(height);
-    l.max_alloc = Some((width as u64 * height as u64 * 8).max(1 << 20));
+    l.max_alloc = Some((width as u64 * height as u64 * 8).max(1 << 20) + 6 * file_len);
     l
 }
 

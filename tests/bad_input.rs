@@ -189,16 +189,8 @@ fn rotation_angles_beyond_ten_turns_are_refused() {
 }
 
 /// A small PNG whose header claims 12000×9000 pixels.
-fn png_claiming(width: u32, height: u32) -> Vec<u8> {
-    fn chunk(kind: &[u8], data: &[u8]) -> Vec<u8> {
-        let mut out = (data.len() as u32).to_be_bytes().to_vec();
-        out.extend_from_slice(kind);
-        out.extend_from_slice(data);
-        let mut crc_input = kind.to_vec();
-        crc_input.extend_from_slice(data);
-        out.extend_from_slice(&crc32(&crc_input).to_be_bytes());
-        out
-    }
+/// One PNG chunk: length, type, data and CRC.
+fn chunk(kind: &[u8], data: &[u8]) -> Vec<u8> {
     fn crc32(bytes: &[u8]) -> u32 {
         let mut crc = 0xffff_ffffu32;
         for &b in bytes {
@@ -213,6 +205,16 @@ fn png_claiming(width: u32, height: u32) -> Vec<u8> {
         }
         !crc
     }
+    let mut out = (data.len() as u32).to_be_bytes().to_vec();
+    out.extend_from_slice(kind);
+    out.extend_from_slice(data);
+    let mut crc_input = kind.to_vec();
+    crc_input.extend_from_slice(data);
+    out.extend_from_slice(&crc32(&crc_input).to_be_bytes());
+    out
+}
+
+fn png_claiming(width: u32, height: u32) -> Vec<u8> {
     let mut ihdr = width.to_be_bytes().to_vec();
     ihdr.extend_from_slice(&height.to_be_bytes());
     ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
@@ -251,6 +253,27 @@ fn images_beyond_the_pixel_budget_are_refused_from_their_header() {
     file.set_len(1 << 30).unwrap();
     let message = Frame::load(&fake).unwrap_err().to_string();
     assert!(message.contains("fake.png"), "{message}");
+}
+
+#[test]
+fn a_small_image_with_large_metadata_decodes() {
+    // 160×120 with a 2 MB XMP packet (an iTXt chunk after IHDR): metadata is bounded by the
+    // file's length, not by the pixel budget.
+    let mut png = Vec::new();
+    image::RgbImage::from_pixel(160, 120, image::Rgb([90, 120, 30]))
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let mut itxt = b"XML:com.adobe.xmp\0\0\0\0\0".to_vec();
+    itxt.extend(std::iter::repeat_n(b'x', 2 << 20));
+    let ihdr_end = 8 + 25;
+    let mut with_xmp = png[..ihdr_end].to_vec();
+    with_xmp.extend(chunk(b"iTXt", &itxt));
+    with_xmp.extend_from_slice(&png[ihdr_end..]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("xmp.png");
+    std::fs::write(&path, &with_xmp).unwrap();
+    let frame = Frame::load(&path).unwrap();
+    assert_eq!((frame.width, frame.height), (160, 120));
 }
 
 #[test]
