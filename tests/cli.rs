@@ -1143,6 +1143,34 @@ fn slam_checks_every_output_before_touching_any() {
 }
 
 #[test]
+fn nav_figures_are_checked_before_the_episodes_run() {
+    let dir = tempfile::tempdir().unwrap();
+    for (command, extra) in [
+        ("nav", &["--random", "1"][..]),
+        ("nav-eval", &["--episodes", "500"][..]),
+    ] {
+        for (plot, says) in [
+            (dir.path().join("figure.jpg"), "name it .png"),
+            (dir.path().join("folder.png"), "names a directory"),
+        ] {
+            std::fs::create_dir_all(dir.path().join("folder.png")).unwrap();
+            let o = steernav()
+                .arg(command)
+                .args(extra)
+                .arg("--plot")
+                .arg(&plot)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(
+                !o.status.success() && err.contains(says),
+                "{command}: {err}"
+            );
+        }
+    }
+}
+
+#[test]
 fn match_says_when_verification_is_impossible() {
     let a = sample();
     let out = steernav()

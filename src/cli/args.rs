@@ -23,6 +23,21 @@ where
     })
 }
 
+/// Checks a `--plot` (or other PNG) output before a run spends its time: it must be named
+/// `.png` (the figure is written as PNG whatever the name says) and not be a directory.
+pub fn check_png_output(flag: &str, path: &std::path::Path) -> anyhow::Result<()> {
+    if !path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        anyhow::bail!("{}: {flag} writes a PNG; name it .png", path.display());
+    }
+    if path.is_dir() {
+        anyhow::bail!("{}: {flag} names a directory, not a file", path.display());
+    }
+    Ok(())
+}
+
 /// The settings file.
 #[derive(Args, Clone, Default)]
 pub struct ConfigArg {

@@ -60,6 +60,9 @@ pub fn run(cmd: NavCmd) -> anyhow::Result<ExitCode> {
         (None, Some(seed)) => World::random(seed, 8, 0.4),
         (None, None) => anyhow::bail!("give --world FILE or --random SEED"),
     };
+    if let Some(plot) = &cmd.plot {
+        crate::args::check_png_output("--plot", plot)?;
+    }
     let gist = Gist::from(GistEngine::new(cfg.controller.visual.gist.clone())?);
     let settings = EvalSettings {
         episodes: 0,

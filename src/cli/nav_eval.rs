@@ -61,6 +61,9 @@ pub fn run(cmd: NavEvalCmd) -> anyhow::Result<ExitCode> {
     if cmd.episodes == 0 {
         anyhow::bail!("--episodes: at least 1");
     }
+    if let Some(plot) = &cmd.plot {
+        crate::args::check_png_output("--plot", plot)?;
+    }
     let gist = Gist::from(GistEngine::new(cfg.controller.visual.gist.clone())?);
     let settings = EvalSettings {
         episodes: cmd.episodes,

@@ -572,12 +572,7 @@ fn check_outputs(cmd: &SlamCmd) -> anyhow::Result<()> {
         }
     }
     if let Some(plot) = &cmd.plot {
-        if !plot
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
-        {
-            bail!("{}: --plot writes a PNG; name it .png", plot.display());
-        }
+        crate::args::check_png_output("--plot", plot)?;
     }
     Ok(())
 }
