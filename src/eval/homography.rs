@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use glam::{DMat3, DVec3};
+
 use crate::error::{Error, Result};
 
 /// A 3×3 row-major homography.
@@ -11,37 +13,28 @@ pub type Homography = [f64; 9];
 /// The identity map.
 pub const IDENTITY: Homography = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
 
+/// The matrix of a row-major homography.
+fn matrix(h: &Homography) -> DMat3 {
+    DMat3::from_cols_array(h).transpose()
+}
+
 /// Applies a homography; None for points sent to infinity.
 pub fn project(h: &Homography, x: f64, y: f64) -> Option<(f64, f64)> {
-    let w = h[6] * x + h[7] * y + h[8];
-    if w.abs() < 1e-12 {
+    let p = matrix(h) * DVec3::new(x, y, 1.0);
+    if p.z.abs() < 1e-12 {
         return None;
     }
-    Some((
-        (h[0] * x + h[1] * y + h[2]) / w,
-        (h[3] * x + h[4] * y + h[5]) / w,
-    ))
+    Some((p.x / p.z, p.y / p.z))
 }
 
 /// Inverse of a homography (None when singular).
 pub fn invert(h: &Homography) -> Option<Homography> {
-    let [a, b, c, d, e, f, g, hh, i] = *h;
-    let det = a * (e * i - f * hh) - b * (d * i - f * g) + c * (d * hh - e * g);
+    let m = matrix(h);
+    let det = m.determinant();
     if !det.is_finite() || det.abs() < 1e-15 {
         return None;
     }
-    let inv = [
-        e * i - f * hh,
-        c * hh - b * i,
-        b * f - c * e,
-        f * g - d * i,
-        a * i - c * g,
-        c * d - a * f,
-        d * hh - e * g,
-        b * g - a * hh,
-        a * e - b * d,
-    ];
-    Some(inv.map(|v| v / det))
+    Some(m.inverse().transpose().to_cols_array())
 }
 
 /// The homography of a 2×3 affine map.

@@ -3,10 +3,11 @@
 //! (eqs 28–31) for a few Euler steps, φ_F (eq 29) and the velocity laws (eqs 35–37) command a
 //! unicycle, and the motion is integrated in small sub-steps with an exact collision test.
 
+use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
 use super::sensors::LidarConfig;
-use super::world::World;
+use super::world::{length, segment_distance, World};
 use crate::error::{Error, Result};
 use crate::moved::{Moved, MovedKeys};
 use crate::nav::controller::{Command, Controller, ControllerConfig, LaserScan, Mode};
@@ -227,7 +228,7 @@ impl<'a> Robot<'a> {
     }
 
     fn distance_to_goal(&self) -> f32 {
-        (self.world.goal[0] - self.pose[0]).hypot(self.world.goal[1] - self.pose[1])
+        length(Vec2::from(self.world.goal) - Vec2::new(self.pose[0], self.pose[1]))
     }
 
     /// Scans (and in fusion mode looks), and returns the controller's stimulus for the field.
@@ -263,11 +264,11 @@ impl<'a> Robot<'a> {
         let h = cfg.control_period / substeps as f32;
         let pose = &mut self.pose;
         for _ in 0..substeps {
-            let before = [pose[0], pose[1]];
+            let before = Vec2::new(pose[0], pose[1]);
             pose[0] += v * pose[2].cos() * h;
             pose[1] += v * pose[2].sin() * h;
             pose[2] = angle_diff(pose[2] + omega * h, 0.0);
-            self.length += (pose[0] - before[0]).hypot(pose[1] - before[1]);
+            self.length += length(Vec2::new(pose[0], pose[1]) - before);
             if self.world.collides([pose[0], pose[1]]) {
                 self.outcome = Some(Outcome::Collision);
                 break;
@@ -395,15 +396,13 @@ pub fn run_lockstep(
 
 /// Standard deviation of the distance from each pose to the start–goal segment.
 fn deviation_std(world: &World, trajectory: &[[f32; 3]]) -> f32 {
-    let (a, b) = ([world.start[0], world.start[1]], world.goal);
-    let ab = [b[0] - a[0], b[1] - a[1]];
-    let len2 = (ab[0] * ab[0] + ab[1] * ab[1]).max(1e-12);
+    let (a, b) = (
+        Vec2::new(world.start[0], world.start[1]),
+        Vec2::from(world.goal),
+    );
     let d: Vec<f32> = trajectory
         .iter()
-        .map(|p| {
-            let t = (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0);
-            (p[0] - a[0] - t * ab[0]).hypot(p[1] - a[1] - t * ab[1])
-        })
+        .map(|p| segment_distance(Vec2::new(p[0], p[1]), a, b))
         .collect();
     let mean = d.iter().sum::<f32>() / d.len() as f32;
     (d.iter().map(|x| (x - mean) * (x - mean)).sum::<f32>() / d.len() as f32).sqrt()

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use glam::Vec2;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ConfigError, Error, Result};
@@ -206,7 +207,8 @@ impl World {
         max_range: f32,
         lidar_only: bool,
     ) -> Vec<Hit> {
-        let d = [angle.cos(), angle.sin()];
+        let d = Vec2::new(angle.cos(), angle.sin());
+        let (o, size) = (Vec2::from(origin), Vec2::from(self.size));
         let mut hits = Vec::new();
         // Arena walls: the ray leaves the box once.
         let mut t_wall = f32::INFINITY;
@@ -215,11 +217,11 @@ impl World {
             if d[axis].abs() < 1e-9 {
                 continue;
             }
-            let bound = if d[axis] > 0.0 { self.size[axis] } else { 0.0 };
-            let t = (bound - origin[axis]) / d[axis];
+            let bound = if d[axis] > 0.0 { size[axis] } else { 0.0 };
+            let t = (bound - o[axis]) / d[axis];
             if t >= 0.0 && t < t_wall {
                 t_wall = t;
-                surface = origin[1 - axis] + t * d[1 - axis];
+                surface = o[1 - axis] + t * d[1 - axis];
             }
         }
         if t_wall <= max_range {
@@ -229,11 +231,11 @@ impl World {
                 surface,
             });
         }
-        for (i, o) in self.obstacles.iter().enumerate() {
+        for (i, obstacle) in self.obstacles.iter().enumerate() {
             if lidar_only && !self.lidar_sees(i) {
                 continue;
             }
-            if let Some((t, s)) = ray_shape(&o.shape, origin, d) {
+            if let Some((t, s)) = ray_shape(&obstacle.shape, o, d) {
                 if t <= max_range {
                     hits.push(Hit {
                         distance: t,
@@ -324,20 +326,28 @@ impl World {
     }
 }
 
+/// Length of a vector as `hypot` gives it (no overflow or underflow of the squares, and the
+/// same figures as before the simulator's geometry moved to glam).
+pub(crate) fn length(v: Vec2) -> f32 {
+    v.x.hypot(v.y)
+}
+
 /// Signed distance from `p` to a shape's boundary (negative inside).
 pub fn signed_distance(shape: &Shape, p: [f32; 2]) -> f32 {
+    let p = Vec2::from(p);
     match shape {
-        Shape::Circle { center, radius } => (p[0] - center[0]).hypot(p[1] - center[1]) - radius,
+        Shape::Circle { center, radius } => length(p - Vec2::from(*center)) - radius,
         Shape::Polygon { points } => {
             let mut best = f32::INFINITY;
             let mut inside = false;
             for k in 0..points.len() {
-                let a = points[k];
-                let b = points[(k + 1) % points.len()];
+                let a = Vec2::from(points[k]);
+                let b = Vec2::from(points[(k + 1) % points.len()]);
                 best = best.min(segment_distance(p, a, b));
-                if (a[1] > p[1]) != (b[1] > p[1]) {
-                    let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-                    if p[0] < x {
+                // Even-odd rule along the ray to +x.
+                if (a.y > p.y) != (b.y > p.y) {
+                    let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+                    if p.x < x {
                         inside = !inside;
                     }
                 }
@@ -351,24 +361,26 @@ pub fn signed_distance(shape: &Shape, p: [f32; 2]) -> f32 {
     }
 }
 
-fn segment_distance(p: [f32; 2], a: [f32; 2], b: [f32; 2]) -> f32 {
-    let (ab, ap) = ([b[0] - a[0], b[1] - a[1]], [p[0] - a[0], p[1] - a[1]]);
-    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+/// Distance from `p` to the segment from `a` to `b`.
+pub(crate) fn segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+    let (ab, ap) = (b - a, p - a);
+    let len2 = ab.dot(ab);
     let t = if len2 > 0.0 {
-        ((ap[0] * ab[0] + ap[1] * ab[1]) / len2).clamp(0.0, 1.0)
+        (ap.dot(ab) / len2).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    (ap[0] - t * ab[0]).hypot(ap[1] - t * ab[1])
+    length(ap - ab * t)
 }
 
-/// Nearest non-negative intersection of a ray with a shape: (distance, surface coordinate).
-fn ray_shape(shape: &Shape, o: [f32; 2], d: [f32; 2]) -> Option<(f32, f32)> {
+/// Nearest non-negative intersection of a ray from `o` along the unit vector `d` with a
+/// shape: (distance, surface coordinate).
+fn ray_shape(shape: &Shape, o: Vec2, d: Vec2) -> Option<(f32, f32)> {
     match shape {
         Shape::Circle { center, radius } => {
-            let (ox, oy) = (o[0] - center[0], o[1] - center[1]);
-            let b = ox * d[0] + oy * d[1];
-            let c = ox * ox + oy * oy - radius * radius;
+            let oc = o - Vec2::from(*center);
+            let b = oc.dot(d);
+            let c = oc.dot(oc) - radius * radius;
             let disc = b * b - c;
             if disc < 0.0 {
                 return None;
@@ -378,22 +390,22 @@ fn ray_shape(shape: &Shape, o: [f32; 2], d: [f32; 2]) -> Option<(f32, f32)> {
             if t < 0.0 {
                 return None;
             }
-            let (hx, hy) = (ox + t * d[0], oy + t * d[1]);
-            Some((t, hy.atan2(hx) * radius))
+            let hit = oc + d * t;
+            Some((t, hit.y.atan2(hit.x) * radius))
         }
         Shape::Polygon { points } => {
             let mut best: Option<(f32, f32)> = None;
             let mut along = 0.0;
             for k in 0..points.len() {
-                let a = points[k];
-                let b = points[(k + 1) % points.len()];
-                let e = [b[0] - a[0], b[1] - a[1]];
-                let len = e[0].hypot(e[1]);
-                let denom = d[0] * e[1] - d[1] * e[0];
+                let a = Vec2::from(points[k]);
+                let b = Vec2::from(points[(k + 1) % points.len()]);
+                let e = b - a;
+                let len = length(e);
+                let denom = d.perp_dot(e);
                 if denom.abs() > 1e-9 {
-                    let w = [a[0] - o[0], a[1] - o[1]];
-                    let t = (w[0] * e[1] - w[1] * e[0]) / denom;
-                    let s = (w[0] * d[1] - w[1] * d[0]) / denom;
+                    let w = a - o;
+                    let t = w.perp_dot(e) / denom;
+                    let s = w.perp_dot(d) / denom;
                     if t >= 0.0 && (0.0..=1.0).contains(&s) && best.is_none_or(|(bt, _)| t < bt) {
                         best = Some((t, along + s * len));
                     }
