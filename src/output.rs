@@ -3,7 +3,7 @@
 //! the record is the contract outside tools and the Python bindings rely on.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
@@ -164,13 +164,48 @@ where
     R: IntoIterator<Item = F>,
     F: AsRef<[u8]>,
 {
+    String::from_utf8(csv_bytes(records)).expect("CSV of UTF-8 fields is UTF-8")
+}
+
+/// [`csv_text`] for fields that need not be UTF-8 (file names as the file system has them).
+pub fn csv_bytes<R, F>(records: impl IntoIterator<Item = R>) -> Vec<u8>
+where
+    R: IntoIterator<Item = F>,
+    F: AsRef<[u8]>,
+{
     let mut w = csv::Writer::from_writer(Vec::new());
     for record in records {
         w.write_record(record)
             .expect("writing CSV to memory cannot fail");
     }
-    let bytes = w.into_inner().expect("flushing CSV to memory cannot fail");
-    String::from_utf8(bytes).expect("CSV of UTF-8 fields is UTF-8")
+    w.into_inner().expect("flushing CSV to memory cannot fail")
+}
+
+/// A path's bytes as the file system has them (on Unix a name need not be UTF-8; elsewhere
+/// its lossy UTF-8 form), for a CSV field that must name the file exactly.
+pub fn path_bytes(path: &Path) -> Vec<u8> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        path.as_os_str().as_bytes().to_vec()
+    }
+    #[cfg(not(unix))]
+    {
+        path.to_string_lossy().into_owned().into_bytes()
+    }
+}
+
+/// The path a [`path_bytes`] field names.
+pub fn path_from_bytes(bytes: &[u8]) -> PathBuf {
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        PathBuf::from(std::ffi::OsStr::from_bytes(bytes))
+    }
+    #[cfg(not(unix))]
+    {
+        PathBuf::from(String::from_utf8_lossy(bytes).into_owned())
+    }
 }
 
 #[cfg(all(test, unix))]

@@ -1326,3 +1326,41 @@ fn batch_shards_split_a_tree_alone_and_at_once() {
         );
     }
 }
+
+#[cfg(unix)]
+#[test]
+fn batch_summaries_name_files_by_their_own_bytes() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let input = dir.path().join("in");
+    std::fs::create_dir_all(&input).unwrap();
+    // "café.png" in Latin-1: not UTF-8, a name the file system holds all the same.
+    let name = std::ffi::OsStr::from_bytes(b"caf\xe9.png");
+    image::open(sample())
+        .unwrap()
+        .crop_imm(0, 0, 120, 90)
+        .save_with_format(input.join(name), image::ImageFormat::Png)
+        .unwrap();
+    let out = dir.path().join("out");
+    let run = |shard: Option<&str>| {
+        let mut cmd = steernav();
+        cmd.args(["batch", "--backend", "cpu", "--max-keypoints", "30"])
+            .arg(&input)
+            .arg("--out")
+            .arg(&out);
+        if let Some(s) = shard {
+            cmd.args(["--shard", s, "--force"]);
+        }
+        run_ok(&mut cmd);
+        std::fs::read(out.join("summary.csv")).unwrap()
+    };
+    // Alone, and merged by a shard into the summary it finds.
+    for summary in [run(None), run(Some("0/1"))] {
+        let row = b"caf\xe9.png,done,120,90,";
+        assert!(
+            summary.windows(row.len()).any(|w| w.ends_with(row)),
+            "{}",
+            String::from_utf8_lossy(&summary)
+        );
+    }
+}

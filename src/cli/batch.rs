@@ -235,10 +235,7 @@ pub fn run_tree(detector: &Detector, opts: &BatchOptions) -> Result<Vec<Entry>> 
         .map(|e| e.expect("every image has an entry"))
         .collect();
     match opts.shard {
-        None => write_atomic(
-            &opts.output.join("summary.csv"),
-            summary_csv(&entries).as_bytes(),
-        )?,
+        None => write_atomic(&opts.output.join("summary.csv"), &summary_csv(&entries))?,
         Some(shard) => merge_summary(opts, shard, &entries)?,
     }
     Ok(entries)
@@ -298,32 +295,30 @@ fn merge_summary(opts: &BatchOptions, shard: Shard, entries: &[Entry]) -> Result
         path: lock_path,
         source,
     })?;
-    let mut rows: Vec<csv::StringRecord> = Vec::new();
-    if let Ok(text) = std::fs::read_to_string(&summary) {
-        for record in csv::Reader::from_reader(text.as_bytes()).records() {
+    // Byte records: an image's name is kept exactly as the file system has it.
+    let mut rows: Vec<csv::ByteRecord> = Vec::new();
+    if let Ok(text) = std::fs::read(&summary) {
+        for record in csv::Reader::from_reader(&text[..]).byte_records() {
             let record = record.map_err(|e| summary_error(&summary, e))?;
-            let image = Path::new(record.get(0).unwrap_or_default());
+            let image = steernav::output::path_from_bytes(record.get(0).unwrap_or_default());
             // This run has the rows of its own shard; the other shards' rows stay.
-            if !shard.contains(image.strip_prefix(&opts.input).unwrap_or(image)) {
+            if !shard.contains(image.strip_prefix(&opts.input).unwrap_or(&image)) {
                 rows.push(record);
             }
         }
     }
     let ours = summary_csv(entries);
-    let mut reader = csv::Reader::from_reader(ours.as_bytes());
+    let mut reader = csv::Reader::from_reader(&ours[..]);
     let header = reader
-        .headers()
+        .byte_headers()
         .map_err(|e| summary_error(&summary, e))?
         .clone();
-    for record in reader.records() {
+    for record in reader.byte_records() {
         rows.push(record.map_err(|e| summary_error(&summary, e))?);
     }
     rows.sort_by(|a, b| a.get(0).cmp(&b.get(0)));
-    let text = steernav::output::csv_text(
-        std::iter::once(header.iter().map(String::from).collect::<Vec<_>>())
-            .chain(rows.iter().map(|r| r.iter().map(String::from).collect())),
-    );
-    write_atomic(&summary, text.as_bytes())
+    let bytes = steernav::output::csv_bytes(std::iter::once(&header).chain(rows.iter()));
+    write_atomic(&summary, &bytes)
 }
 
 fn summary_error(summary: &Path, e: csv::Error) -> Error {
@@ -397,15 +392,15 @@ fn write_outputs(
     })
 }
 
-/// The summary CSV: one row per image.
-pub fn summary_csv(entries: &[Entry]) -> String {
+/// The summary CSV: one row per image, the image named by its path's own bytes (a name that is
+/// not UTF-8 stays that name).
+pub fn summary_csv(entries: &[Entry]) -> Vec<u8> {
     let header = "image,status,width,height,keypoints,candidates,backend,ms,error"
         .split(',')
-        .map(String::from)
+        .map(|f| f.as_bytes().to_vec())
         .collect::<Vec<_>>();
     let rows = entries.iter().map(|e| {
-        let image = e.image.display().to_string();
-        match &e.outcome {
+        let fields: Vec<String> = match &e.outcome {
             Outcome::Done {
                 width,
                 height,
@@ -415,7 +410,6 @@ pub fn summary_csv(entries: &[Entry]) -> String {
                 ms,
                 damaged,
             } => vec![
-                image,
                 if damaged.is_some() { "damaged" } else { "done" }.into(),
                 width.to_string(),
                 height.to_string(),
@@ -426,7 +420,7 @@ pub fn summary_csv(entries: &[Entry]) -> String {
                 damaged.clone().unwrap_or_default(),
             ],
             Outcome::Skipped { previous } => {
-                let mut row = vec![image, "skipped".into()];
+                let mut row = vec!["skipped".to_string()];
                 if let Some((width, height, keypoints, backend)) = previous {
                     row.extend([
                         width.to_string(),
@@ -436,18 +430,21 @@ pub fn summary_csv(entries: &[Entry]) -> String {
                         backend.clone(),
                     ]);
                 }
-                row.resize(9, String::new());
+                row.resize(8, String::new());
                 row
             }
             Outcome::Failed(msg) => {
-                let mut row = vec![image, "failed".into()];
-                row.resize(8, String::new());
+                let mut row = vec!["failed".to_string()];
+                row.resize(7, String::new());
                 row.push(msg.clone());
                 row
             }
-        }
+        };
+        std::iter::once(steernav::output::path_bytes(&e.image))
+            .chain(fields.into_iter().map(String::into_bytes))
+            .collect::<Vec<_>>()
     });
-    steernav::output::csv_text(std::iter::once(header).chain(rows))
+    steernav::output::csv_bytes(std::iter::once(header).chain(rows))
 }
 
 #[derive(Args)]
@@ -511,10 +508,7 @@ pub fn run(cmd: BatchCmd) -> anyhow::Result<ExitCode> {
                 skip_done: !cmd.force,
             },
         )?;
-        write_atomic(
-            &cmd.out.join("summary.csv"),
-            summary_csv(&entries).as_bytes(),
-        )?;
+        write_atomic(&cmd.out.join("summary.csv"), &summary_csv(&entries))?;
         return crate::detect_bag::finish(&cmd.input, &entries, broken);
     }
     if cmd.image_topic.is_some() || cmd.mcap.is_some() {
