@@ -341,6 +341,8 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_ok(&out);
     assert!(stdout.contains("ATE"), "{stdout}");
+    // The processing rate is set against the rate the frames were taken at (30 Hz room).
+    assert!(stdout.contains("the sequence's 30.0"), "{stdout}");
     let lines: Vec<String> = std::fs::read_to_string(&traj)
         .unwrap()
         .lines()

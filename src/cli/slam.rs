@@ -302,13 +302,15 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         lost,
         relocalised
     );
+    let speed = 1e3 / mean(|r| r.timings.total_ms).max(1e-9);
     println!(
-        "per frame: detection {:.2} ms, association {:.2} ms, filter {:.2} ms, total {:.2} ms ({:.0} frames/s); {} landmarks at the end",
+        "per frame: detection {:.2} ms, association {:.2} ms, filter {:.2} ms, total {:.2} ms ({:.0} frames/s{}); {} landmarks at the end",
         mean(|r| r.timings.detection_ms),
         mean(|r| r.timings.association_ms),
         mean(|r| r.timings.filter_ms),
         mean(|r| r.timings.total_ms),
-        1e3 / mean(|r| r.timings.total_ms).max(1e-9),
+        speed,
+        against_camera_rate(&reports, speed),
         map.len()
     );
     println!("trajectory: {}", traj_path.display());
@@ -575,4 +577,26 @@ fn check_outputs(cmd: &SlamCmd) -> anyhow::Result<()> {
         crate::args::check_png_output("--plot", plot)?;
     }
     Ok(())
+}
+
+/// How the processing rate `speed` (frames/s) compares with the rate the frames were taken at
+/// (from their timestamps): ", real time against the sequence's 30.0" or ", 0.62× the
+/// sequence's 30.0: falls behind"; empty for fewer than two frames or equal timestamps.
+fn against_camera_rate(reports: &[FrameReport], speed: f64) -> String {
+    let (Some(first), Some(last)) = (reports.first(), reports.last()) else {
+        return String::new();
+    };
+    let span = last.timestamp - first.timestamp;
+    if reports.len() < 2 || !(span > 0.0) {
+        return String::new();
+    }
+    let rate = (reports.len() - 1) as f64 / span;
+    if speed >= rate {
+        format!(", real time against the sequence's {rate:.1}")
+    } else {
+        format!(
+            ", {:.2}× the sequence's {rate:.1}: falls behind",
+            speed / rate
+        )
+    }
 }
