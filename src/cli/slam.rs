@@ -587,7 +587,7 @@ fn against_camera_rate(reports: &[FrameReport], speed: f64) -> String {
         return String::new();
     };
     let span = last.timestamp - first.timestamp;
-    if reports.len() < 2 || !(span > 0.0) {
+    if reports.len() < 2 || span.is_nan() || span <= 0.0 {
         return String::new();
     }
     let rate = (reports.len() - 1) as f64 / span;
