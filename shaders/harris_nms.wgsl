@@ -91,9 +91,10 @@ fn peak_offset(i: u32, w: u32) -> vec2<f32> {
                      parabola_offset(cur[i - w], c, cur[i + w]));
 }
 
-// Largest value of the 3x3 neighbourhood around pixel (px, py) on the grid of the previous
-// (which = 0) or next (which = 1) scale, for orientation t.
-fn adjacent_max(which: u32, t: u32, px: u32, py: u32) -> f32 {
+// The largest value of the 3x3 neighbourhood around pixel (px, py) on the grid of the previous
+// (which = 0) or next (which = 1) scale, for orientation t, and the value at its centre (the
+// sample nearest the pixel, for the sub-scale fit).
+fn adjacent(which: u32, t: u32, px: u32, py: u32) -> vec2<f32> {
     var w = params.prev_width;
     var h = params.prev_height;
     var s = params.prev_step;
@@ -106,37 +107,23 @@ fn adjacent_max(which: u32, t: u32, px: u32, py: u32) -> f32 {
     let cy = (py + s / 2u) / s;
     let base = t * w * h;
     var m = -3.4e38;
+    var centre = 0.0;
     for (var i = 0u; i < 9u; i++) {
         let nx = min(max(cx + i % 3u, 1u) - 1u, w - 1u);
         let ny = min(max(cy + i / 3u, 1u) - 1u, h - 1u);
         let n = base + ny * w + nx;
+        var value: f32;
         if (which == 0u) {
-            m = max(m, prev[n]);
+            value = prev[n];
         } else {
-            m = max(m, next[n]);
+            value = next[n];
+        }
+        m = max(m, value);
+        if (i == 4u) {
+            centre = value;
         }
     }
-    return m;
-}
-
-// The sample of the previous (which = 0) or next (which = 1) scale nearest pixel (px, py), for
-// orientation t: the centre adjacent_max visits first.
-fn adjacent_centre(which: u32, t: u32, px: u32, py: u32) -> f32 {
-    var w = params.prev_width;
-    var h = params.prev_height;
-    var s = params.prev_step;
-    if (which == 1u) {
-        w = params.next_width;
-        h = params.next_height;
-        s = params.next_step;
-    }
-    let cx = min((px + s / 2u) / s, w - 1u);
-    let cy = min((py + s / 2u) / s, h - 1u);
-    let n = t * w * h + cy * w + cx;
-    if (which == 0u) {
-        return prev[n];
-    }
-    return next[n];
+    return vec2<f32>(m, centre);
 }
 
 // CPU twin: Candidate::pack_with_offset. The sub-scale offset (scale steps, within ±0.5) as a
@@ -177,19 +164,22 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 keep = false;
             }
         }
-        if (keep && params.has_prev == 1u && adjacent_max(0u, t, px, py) > v) {
-            keep = false;
+        var below = vec2<f32>(0.0);
+        var above = vec2<f32>(0.0);
+        if (keep && params.has_prev == 1u) {
+            below = adjacent(0u, t, px, py);
+            keep = !(below.x > v);
         }
-        if (keep && params.has_next == 1u && adjacent_max(1u, t, px, py) > v) {
-            keep = false;
+        if (keep && params.has_next == 1u) {
+            above = adjacent(1u, t, px, py);
+            keep = !(above.x > v);
         }
         if (keep) {
             let o = peak_offset(i, w);
             // The vertex of the parabola through the adjacent scales' responses here.
             var scale_offset = 0.0;
             if (params.has_prev == 1u && params.has_next == 1u) {
-                scale_offset = parabola_offset(adjacent_centre(0u, t, px, py), v,
-                                               adjacent_centre(1u, t, px, py));
+                scale_offset = parabola_offset(below.y, v, above.y);
             }
             let slot = atomicAdd(&stats.count, 1u);
             if (slot < settings.capacity) {

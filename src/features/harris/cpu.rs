@@ -430,11 +430,15 @@ fn suppress(
             let (gw, gh) = grids[s];
             let g = plan.scales[s].step as usize;
             let m = plan.scales[s].grid_margin();
+            // Scale sc's sample nearest pixel (px, py).
+            let nearest = |sc: usize, px: usize, py: usize| {
+                let gs = plan.scales[sc].step as usize;
+                ((px + gs / 2) / gs, (py + gs / 2) / gs)
+            };
             // Is v at least every value of scale sc's 3×3 neighbourhood around pixel (px, py)?
             let across = |sc: usize, px: usize, py: usize, v: f32| {
                 let (w, h) = grids[sc];
-                let gs = plan.scales[sc].step as usize;
-                let (cx, cy) = ((px + gs / 2) / gs, (py + gs / 2) / gs);
+                let (cx, cy) = nearest(sc, px, py);
                 // The centre first: the same point at the adjacent scale rejects most samples.
                 [4usize, 0, 1, 2, 3, 5, 6, 7, 8].iter().all(|&i| {
                     let nx = (cx + i % 3).saturating_sub(1).min(w - 1);
@@ -442,11 +446,10 @@ fn suppress(
                     row(sc, t, ny)[nx] <= v
                 })
             };
-            // Scale sc's sample nearest pixel (px, py): the centre `across` compares first.
+            // The value there: the centre `across` compares first.
             let centre = |sc: usize, px: usize, py: usize| {
                 let (w, h) = grids[sc];
-                let gs = plan.scales[sc].step as usize;
-                let (cx, cy) = ((px + gs / 2) / gs, (py + gs / 2) / gs);
+                let (cx, cy) = nearest(sc, px, py);
                 row(sc, t, cy.min(h - 1))[cx.min(w - 1)]
             };
             let mut out = Vec::new();
