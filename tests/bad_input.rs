@@ -341,6 +341,11 @@ fn settings_that_would_blow_up_work_or_memory_are_refused() {
             "texels_per_metre",
         ),
         ("[synthetic]\nk1 = nan\n".to_string(), "k1"),
+        ("[synthetic]\nclutter = 100000\n".to_string(), "clutter"),
+        ("[synthetic]\nexposure = 1.0\n".to_string(), "exposure"),
+        ("[synthetic]\nnoise = 1e9\n".to_string(), "noise"),
+        // Two rooms need the walk: their doors go where its route crosses the wall.
+        ("[synthetic]\nrooms = 2\n".to_string(), "rooms"),
     ];
     for (text, key) in cases {
         let s = steernav::Settings::from_toml_str(&text).unwrap();

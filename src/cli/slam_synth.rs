@@ -16,6 +16,10 @@ pub enum MotionArg {
     Room,
     /// A car driving with turns.
     Drive,
+    /// A person walking through two cluttered rooms, looking around.
+    Walk,
+    /// A wheeled robot driving and turning in place among furniture.
+    Rover,
 }
 
 #[derive(Args)]
@@ -23,16 +27,20 @@ pub struct SlamSynthCmd {
     /// Output folder (TUM RGB-D layout: rgb/, rgb.txt, groundtruth.txt, calib.toml).
     #[arg(long, value_name = "DIR", default_value = "synth-out")]
     out: PathBuf,
-    /// Number of frames [default: 240 for room, 60 for drive].
+    /// Number of frames [default: 240 for room, 60 for drive, 360 for walk and rover].
     #[arg(long)]
     frames: Option<usize>,
-    /// The camera's motion: `room` (a hand-held loop in a room, 30 Hz) or `drive` (a car at
-    /// 10 m/s and 10 Hz with turns, scene depths 3–50 m). Each has its own defaults.
+    /// The camera's motion: `room` (a hand-held loop in a bare room, 30 Hz, 320×240), `drive`
+    /// (a car at 10 m/s and 10 Hz with turns, scene depths 3–50 m), `walk` (a person at
+    /// 0.3–1 m/s through two furnished rooms, looking around at up to 60°/s, 30 Hz, 640×480,
+    /// with motion blur, noise and auto-exposure) or `rover` (a robot 0.3 m high driving and
+    /// turning in place among furniture, 15 Hz, 640×480). Each has its own defaults.
     #[arg(long, value_enum, default_value_t = MotionArg::Room)]
     motion: MotionArg,
     /// Settings file whose [synthetic] table (width, height, fov_deg, k1, fps, room,
-    /// amplitude, speed, camera_height, period, texels_per_metre, seed) goes over the motion's
-    /// defaults; --frames overrides.
+    /// amplitude, speed, camera_height, period, texels_per_metre, seed, rooms, clutter,
+    /// plain_fraction, exposure, noise, gain_jitter) goes over the motion's defaults; --frames
+    /// overrides.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
 }
@@ -41,6 +49,8 @@ pub fn run(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
     let motion = match cmd.motion {
         MotionArg::Room => SyntheticMotion::Room,
         MotionArg::Drive => SyntheticMotion::Drive,
+        MotionArg::Walk => SyntheticMotion::Walk,
+        MotionArg::Rover => SyntheticMotion::Rover,
     };
     let mut config = SyntheticConfig::for_motion(motion);
     if let Some(path) = &cmd.config {
