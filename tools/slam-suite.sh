@@ -7,7 +7,8 @@
 #
 # Sequences:
 # - generated: the room (30 Hz) for seeds 1 2 3 7 11, the drive (10 Hz) for seeds 1 2 3 7 11,
-#   and the drive at 5 Hz for seeds 7 and 3;
+#   the drive at 5 Hz for seeds 7 and 3, and (with INDOOR=1, the default) the walk through
+#   two furnished rooms (30 Hz, 640x480) and the rover (15 Hz, 640x480) for seeds 1 2 3 7 11;
 # - real, when KITTI_CLIPS_DIR is given (a folder of KITTI odometry clips): each clip as is,
 #   from its 16th frame, at 5 Hz (even and odd frames), played backwards, and standing still
 #   on its first frame for 1.5 s before it drives off.
@@ -55,6 +56,13 @@ sequences=()
 for seed in 1 2 3 7 11; do synth "room-$seed" room "$seed" "" && sequences+=("room-$seed|"); done
 for seed in 1 2 3 7 11; do synth "drive-$seed" drive "$seed" "" && sequences+=("drive-$seed|"); done
 for seed in 7 3; do synth "drive5hz-$seed" drive "$seed" 5 && sequences+=("drive5hz-$seed|"); done
+if [ "${INDOOR:-1}" = 1 ]; then
+  for motion in walk rover; do
+    for seed in 1 2 3 7 11; do
+      synth "$motion-$seed" "$motion" "$seed" "" && sequences+=("$motion-$seed|")
+    done
+  done
+fi
 if [ -n "$clips" ]; then
   for src in "$clips"/*/; do
     src=${src%/}
@@ -72,10 +80,10 @@ fi
 
 baseline=${BASELINE:-0}
 if [ "$baseline" = 1 ] && [ ! -x .venv-peers/bin/python ]; then bash tools/setup-peers.sh >/dev/null; fi
-printf '%-22s %6s %8s %8s' sequence lost frames ATE%
+printf '%-22s %6s %8s %8s %7s' sequence lost frames ATE% drift
 [ "$baseline" = 1 ] && printf ' %12s' "OpenCV-VO%"
 printf '\n'
-total_lost=0 over=0 worst=0 count=0 sum=0
+total_lost=0 over=0 worst=0 count=0 sum=0 drifting=0
 for entry in "${sequences[@]}"; do
   name=${entry%%|*}
   read -r -a flags <<<"${entry#*|}"
@@ -89,7 +97,8 @@ for entry in "${sequences[@]}"; do
   lost=$(sed -n 's/.*tracking lost on \([0-9]*\) frames.*/\1/p' "$log")
   frames=$(sed -n 's/.*: \([0-9]*\) frames (.*/\1/p' "$log" | head -1)
   ate=$(sed -n 's/.*RMSE (\([0-9.]*\)% of the.*/\1/p' "$log")
-  printf '%-22s %6s %8s %8s' "$name" "$lost" "$frames" "$ate"
+  drift=$(sed -n 's/.*scale drift \([0-9.]*\) (last.*/\1/p' "$log")
+  printf '%-22s %6s %8s %8s %7s' "$name" "$lost" "$frames" "$ate" "${drift:--}"
   if [ "$baseline" = 1 ]; then
     truth=$(find "$SUITE_DIR/$name" -maxdepth 1 \( -name poses.txt -o -name groundtruth.txt \) | head -1)
     vo="$SUITE_DIR/$name.vo.txt"
@@ -106,9 +115,12 @@ for entry in "${sequences[@]}"; do
   total_lost=$((total_lost + lost))
   count=$((count + 1))
   if awk -v a="$ate" 'BEGIN { exit !(a > 2.0) }'; then over=$((over + 1)); fi
+  if [ -n "$drift" ] && awk -v d="$drift" 'BEGIN { exit !(d > 1.1 || d < 1 / 1.1) }'; then
+    drifting=$((drifting + 1))
+  fi
   sum=$(awk -v a="$ate" -v s="$sum" 'BEGIN { print s + a }')
   worst=$(awk -v a="$ate" -v w="$worst" 'BEGIN { print (a > w ? a : w) }')
 done
 mean=$(awk -v s="$sum" -v n="$count" 'BEGIN { printf "%.2f", n ? s / n : 0 }')
-printf 'summary: %d sequences, %d frames lost, %d above 2%% (or failed), mean ATE %s%%, worst %s%%\n' \
-  "$count" "$total_lost" "$over" "$mean" "$worst"
+printf 'summary: %d sequences, %d frames lost, %d above 2%% (or failed), mean ATE %s%%, worst %s%%, %d with scale drift beyond 10%%\n' \
+  "$count" "$total_lost" "$over" "$mean" "$worst" "$drifting"

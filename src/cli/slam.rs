@@ -320,13 +320,14 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         match trajectory::evaluate(&estimate, truth, 0.02) {
             Ok(e) => {
                 println!(
-                    "against {}: ATE {:.4} m RMSE ({:.2}% of the {:.2} m path), {}, scale {:.4}, {} poses matched",
+                    "against {}: ATE {:.4} m RMSE ({:.2}% of the {:.2} m path), {}, scale {:.4}, {}, {} poses matched",
                     path.display(),
                     e.ate_rmse,
                     100.0 * e.ate_rmse / e.path_length.max(1e-12),
                     e.path_length,
                     e.rpe_text(),
                     e.scale,
+                    e.scale_drift_text(),
                     e.matched
                 );
                 aligned_truth = Some(truth_in_estimate_frame(&estimate, truth));

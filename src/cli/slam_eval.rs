@@ -83,12 +83,13 @@ pub fn run(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
         println!("{}", serde_json::to_string(&e)?);
     } else {
         println!(
-            "ATE RMSE {:.4} m ({:.2}% of the {:.3} m path), {}, scale {:.4}, {} poses matched",
+            "ATE RMSE {:.4} m ({:.2}% of the {:.3} m path), {}, scale {:.4}, {}, {} poses matched",
             e.ate_rmse,
             100.0 * e.ate_rmse / e.path_length.max(1e-12),
             e.path_length,
             e.rpe_text(),
             e.scale,
+            e.scale_drift_text(),
             e.matched
         );
     }

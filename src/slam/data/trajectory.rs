@@ -209,6 +209,14 @@ impl TrajectoryError {
             None => "no RPE (the matched poses span less than its 1 s interval)".into(),
         }
     }
+
+    /// "scale drift 1.043 (last third against first)", or why there is none.
+    pub fn scale_drift_text(&self) -> String {
+        match self.scale_drift {
+            Some(d) => format!("scale drift {d:.3} (last third against first)"),
+            None => "no scale drift (a third of the poses is too short or hardly moves)".into(),
+        }
+    }
 }
 
 /// The figures of `steernav slam-eval`.
@@ -222,10 +230,38 @@ pub struct TrajectoryError {
     pub rpe_trans: Option<f64>,
     /// The alignment's scale factor.
     pub scale: f64,
+    /// Scale drift: the Sim(3) scale fitted to the last third of the matched poses over the
+    /// one fitted to the first third (1: none); `None` when either third has fewer than 3
+    /// poses or moves less than a tenth of the whole trajectory's extent (JSON `null`).
+    pub scale_drift: Option<f64>,
     /// Ground-truth path length over the matched poses, metres.
     pub path_length: f64,
     /// Number of matched poses.
     pub matched: usize,
+}
+
+/// Extent of a set of points: the largest distance from the first.
+fn extent(points: &[Vector3<f64>]) -> f64 {
+    points
+        .iter()
+        .map(|p| (p - points[0]).norm())
+        .fold(0.0, f64::max)
+}
+
+/// The last third's Sim(3) scale over the first third's (see [`TrajectoryError::scale_drift`]).
+fn scale_drift(src: &[Vector3<f64>], dst: &[Vector3<f64>]) -> Option<f64> {
+    let third = src.len() / 3;
+    let whole = extent(dst).min(extent(src));
+    if third < 3 {
+        return None;
+    }
+    let scale = |range: std::ops::Range<usize>| {
+        let moves = extent(&src[range.clone()]).min(extent(&dst[range.clone()])) > 0.1 * whole;
+        moves.then(|| umeyama(&src[range.clone()], &dst[range], true).0)
+    };
+    let first = scale(0..third)?;
+    let last = scale(src.len() - third..src.len())?;
+    (first > 0.0).then_some(last / first)
 }
 
 /// ATE and RPE of `estimate` against `truth`, timestamps matched within `max_dt` seconds.
@@ -301,6 +337,7 @@ pub fn evaluate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Result<Trajec
         ate_rmse: ate,
         rpe_trans,
         scale: s,
+        scale_drift: scale_drift(&src, &dst),
         path_length,
         matched: pairs.len(),
     })
@@ -412,5 +449,38 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("non-finite"));
+    }
+
+    #[test]
+    fn scale_drift_compares_the_last_third_with_the_first() {
+        let pose = |k: usize, position: Vector3<f64>| Pose {
+            timestamp: k as f64 * 0.1,
+            position,
+            orientation: nalgebra::Vector4::new(1.0, 0.0, 0.0, 0.0),
+        };
+        let truth: Vec<Pose> = (0..90)
+            .map(|k| pose(k, Vector3::new(k as f64 * 0.1, (k as f64 * 0.2).sin(), 0.0)))
+            .collect();
+        // The estimate's steps shrink to 80% of their first length by the end.
+        let mut at = Vector3::zeros();
+        let estimate: Vec<Pose> = (0..90)
+            .map(|k| {
+                if k > 0 {
+                    let step = truth[k].position - truth[k - 1].position;
+                    at += step * (1.0 - 0.2 * k as f64 / 89.0);
+                }
+                pose(k, at)
+            })
+            .collect();
+        let e = evaluate(&estimate, &truth, 0.01).unwrap();
+        let drift = e.scale_drift.unwrap();
+        // The thirds' mean step lengths are 0.967 and 0.833 of the truth's.
+        assert!((drift - 0.967 / 0.833).abs() < 0.02, "drift {drift}");
+        let same = evaluate(&truth, &truth, 0.01).unwrap();
+        assert!((same.scale_drift.unwrap() - 1.0).abs() < 1e-9);
+        assert!(evaluate(&truth[..6], &truth[..6], 0.01)
+            .unwrap()
+            .scale_drift
+            .is_none());
     }
 }
