@@ -370,7 +370,7 @@ impl SyntheticSequence {
     /// Renders frame `k`: the average of the renders over its exposure, times the frame's
     /// auto-exposure gain, plus sensor noise.
     pub fn render(&self, k: usize) -> Frame {
-        let single = [self.poses[k].clone()];
+        let single = [self.poses[k]];
         let views: Vec<(Vector3<f64>, nalgebra::Matrix3<f64>)> = match self.exposures.get(k) {
             Some(poses) if !poses.is_empty() => poses.as_slice(),
             _ => &single,
@@ -484,7 +484,7 @@ fn exposure_poses(config: &SyntheticConfig) -> Vec<Vec<Pose>> {
         .map(|k| {
             let centre = k * BLUR_SAMPLES_PER_FRAME;
             (centre.saturating_sub(half)..=centre + half)
-                .map(|i| fine[i].clone())
+                .map(|i| fine[i])
                 .collect()
         })
         .collect()
