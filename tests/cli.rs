@@ -509,6 +509,30 @@ fn nav_and_nav_eval_run_from_the_command_line() {
 }
 
 #[test]
+fn bench_slam_suite_times_the_drive_and_the_walk() {
+    let out = run_ok(steernav().args([
+        "bench",
+        "--suite",
+        "slam",
+        "--backend",
+        "cpu",
+        "--sizes",
+        "160x120",
+        "--frames",
+        "10",
+        "--json",
+    ]));
+    let rows: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let motions: Vec<&str> = rows.iter().map(|r| r["motion"].as_str().unwrap()).collect();
+    assert_eq!(motions, ["drive", "walk"]);
+    for r in &rows {
+        assert_eq!(r["frames"], 10, "{r}");
+        assert!(r["median_total_ms"].as_f64().unwrap() > 0.0, "{r}");
+        assert!(r["detections"].as_u64().unwrap() >= 1, "{r}");
+    }
+}
+
+#[test]
 fn bench_nav_suite_times_gist_and_the_field() {
     let out = run_ok(steernav().args([
         "bench",

@@ -31,14 +31,15 @@ pub enum Suite {
 pub struct BenchCmd {
     /// What to time: detect (every stage of the detector per image size), nav (GIST per
     /// image and the neural field at B = 1, 64, 4096) or slam (the whole SLAM loop per frame
-    /// on a generated 10 Hz drive, split per stage).
+    /// on a generated 10 Hz drive and a 30 Hz walk through furnished rooms, split per stage).
     #[arg(long, value_enum, default_value_t = Suite::Detect)]
     suite: Suite,
     /// Image sizes, WxH separated by commas [default: 320x240,640x480,1280x720,1920x1080
     /// for detect; 640x480,1241x376 for slam].
     #[arg(long, value_name = "LIST")]
     sizes: Option<String>,
-    /// Frames of the generated drive per size and backend (slam suite).
+    /// Frames of each generated sequence (the drive and the walk) per size and backend (slam
+    /// suite).
     #[arg(long, default_value_t = 100)]
     frames: usize,
     /// Backends to time, separated by commas: cpu, gpu (auto means gpu when it is a hardware
@@ -107,7 +108,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
                 cmd.frames
             );
         }
-        bar.set_length((sizes.len() * backends.len() * cmd.frames) as u64);
+        bar.set_length((sizes.len() * slam::MOTIONS.len() * backends.len() * cmd.frames) as u64);
         let rows = slam::run(&sizes, &backends, cmd.frames, || bar.inc(1))?;
         bar.finish_and_clear();
         if cmd.json {

@@ -1,6 +1,6 @@
 //! Per-frame cost of the whole SLAM loop (paper §2.6: prediction, active search, update, map
-//! management, and detection when the map needs landmarks) on generated drives at the sizes a
-//! robot's camera delivers, with the split per stage. Speed is measured here, never in tests.
+//! management, and detection when the map needs landmarks) on generated drives and walks at
+//! the sizes a robot's camera delivers, with the split per stage. Speed is measured here, never in tests.
 
 use serde::Serialize;
 
@@ -13,6 +13,8 @@ use steernav::slam::tracker::{FrameReport, Slam};
 /// One size and backend.
 #[derive(Clone, Debug, Serialize)]
 pub struct SlamBenchRow {
+    /// The generated motion: `drive` (10 Hz car) or `walk` (30 Hz, furnished rooms).
+    pub motion: SyntheticMotion,
     /// "cpu" or "gpu": where detection ran.
     pub backend: steernav::Backend,
     /// Frame size, pixels.
@@ -38,8 +40,9 @@ pub struct SlamBenchRow {
     pub detections: usize,
 }
 
-/// Runs a generated 10 Hz drive of `frames` frames at each size on each backend, with the
-/// default SLAM configuration and the tracking detector; `progress` is called once per frame.
+/// Runs a generated 10 Hz drive and a 30 Hz walk through furnished rooms, `frames` frames
+/// each, at each size on each backend, with the default SLAM configuration and the tracking
+/// detector; `progress` is called once per frame.
 pub fn run(
     sizes: &[(u32, u32)],
     backends: &[Backend],
@@ -48,43 +51,70 @@ pub fn run(
 ) -> Result<Vec<SlamBenchRow>> {
     let mut rows = Vec::new();
     for &(width, height) in sizes {
-        let drive = SyntheticConfig::for_motion(SyntheticMotion::Drive);
-        // Long enough for the whole drive at its fastest, with the far wall 35 m beyond.
-        let length = 1.3 * drive.speed * frames as f64 / drive.fps;
-        let seq = SyntheticSequence::new(SyntheticConfig {
-            width,
-            height,
-            frames,
-            room: [
-                drive.room[0],
-                drive.room[1],
-                drive.room[2].max(0.5 * length + 30.0),
-            ],
-            // A KITTI-like lens for wide frames, a usual webcam's otherwise.
-            fov_deg: if width as f64 > 2.5 * height as f64 {
-                82.0
-            } else {
-                70.0
-            },
-            ..drive
-        })?;
-        let images: Vec<_> = (0..seq.poses.len()).map(|k| seq.render(k)).collect();
-        for &backend in backends {
-            let detector = Detector::new(&DetectorConfig::tracking(), backend)?;
-            let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default())?;
-            let mut reports: Vec<FrameReport> = Vec::with_capacity(images.len());
-            for (image, pose) in images.iter().zip(&seq.poses) {
-                reports.push(slam.process(image, pose.timestamp, None, &detector)?);
-                progress();
+        for motion in MOTIONS {
+            let seq = SyntheticSequence::new(sequence(motion, width, height, frames))?;
+            let images: Vec<_> = (0..seq.poses.len()).map(|k| seq.render(k)).collect();
+            for &backend in backends {
+                let detector = Detector::new(&DetectorConfig::tracking(), backend)?;
+                let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default())?;
+                let mut reports: Vec<FrameReport> = Vec::with_capacity(images.len());
+                for (image, pose) in images.iter().zip(&seq.poses) {
+                    reports.push(slam.process(image, pose.timestamp, None, &detector)?);
+                    progress();
+                }
+                rows.push(summarise(
+                    &reports,
+                    motion,
+                    detector.backend(),
+                    width,
+                    height,
+                ));
             }
-            rows.push(summarise(&reports, detector.backend(), width, height));
         }
     }
     Ok(rows)
 }
 
+/// The motions every size runs.
+pub const MOTIONS: [SyntheticMotion; 2] = [SyntheticMotion::Drive, SyntheticMotion::Walk];
+
+/// The generated sequence of `motion` at one size.
+fn sequence(motion: SyntheticMotion, width: u32, height: u32, frames: usize) -> SyntheticConfig {
+    let preset = SyntheticConfig::for_motion(motion);
+    // A KITTI-like lens for wide frames, a usual webcam's otherwise.
+    let fov_deg = if width as f64 > 2.5 * height as f64 {
+        82.0
+    } else {
+        70.0
+    };
+    if motion != SyntheticMotion::Drive {
+        return SyntheticConfig {
+            width,
+            height,
+            frames,
+            fov_deg,
+            ..preset
+        };
+    }
+    // Long enough for the whole drive at its fastest, with the far wall 35 m beyond.
+    let length = 1.3 * preset.speed * frames as f64 / preset.fps;
+    SyntheticConfig {
+        width,
+        height,
+        frames,
+        room: [
+            preset.room[0],
+            preset.room[1],
+            preset.room[2].max(0.5 * length + 30.0),
+        ],
+        fov_deg,
+        ..preset
+    }
+}
+
 fn summarise(
     reports: &[FrameReport],
+    motion: SyntheticMotion,
     backend: steernav::Backend,
     width: u32,
     height: u32,
@@ -96,6 +126,7 @@ fn summarise(
     let mean = |f: fn(&FrameReport) -> f64| reports.iter().map(f).sum::<f64>() / n;
     let median = quantile(0.5);
     SlamBenchRow {
+        motion,
         backend,
         width,
         height,
@@ -116,13 +147,14 @@ fn summarise(
 /// The rows as a text table.
 pub fn table(rows: &[SlamBenchRow]) -> String {
     let mut out = String::from(
-        "SLAM per frame (generated 10 Hz drive, default SlamConfig, tracking detector)\n\
-         backend  size        frames  median ms  p90 ms  frames/s  detect ms  assoc ms  filter ms  detections\n",
+        "SLAM per frame (generated 10 Hz drive and 30 Hz walk, default SlamConfig, tracking detector)\n\
+         motion  backend  size        frames  median ms  p90 ms  frames/s  detect ms  assoc ms  filter ms  detections\n",
     );
     for r in rows {
         out.push_str(&format!(
-            "{:<8} {:<11} {:>6} {:>10.2} {:>7.2} {:>9.1} {:>10.2} {:>9.2} {:>10.2} {:>11}\n",
-            r.backend,
+            "{:<7} {:<8} {:<11} {:>6} {:>10.2} {:>7.2} {:>9.1} {:>10.2} {:>9.2} {:>10.2} {:>11}\n",
+            format!("{:?}", r.motion).to_lowercase(),
+            r.backend.to_string(),
             format!("{}x{}", r.width, r.height),
             r.frames,
             r.median_total_ms,
