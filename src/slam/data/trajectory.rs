@@ -287,10 +287,7 @@ pub fn evaluate(estimate: &[Pose], truth: &[Pose], max_dt: f64) -> Result<Trajec
                 format!("the {what} holds a position that is not finite or beyond 1e12 m"),
             ));
         }
-        let spread = points
-            .iter()
-            .map(|p| (p - points[0]).norm())
-            .fold(0.0, f64::max);
+        let spread = extent(points);
         if spread <= 1e-9 {
             return Err(Error::config(
                 "trajectories",

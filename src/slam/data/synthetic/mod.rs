@@ -148,6 +148,7 @@ impl SyntheticConfig {
             exposure: 0.008,
             noise: 2.0,
             gain_jitter: 0.03,
+            frames: 360,
             ..Self::default()
         };
         match motion {
@@ -165,7 +166,6 @@ impl SyntheticConfig {
                 ..Self::default()
             },
             SyntheticMotion::Walk => Self {
-                frames: 360,
                 fps: 30.0,
                 room: [3.0, 1.4, 5.0],
                 rooms: 2,
@@ -177,7 +177,6 @@ impl SyntheticConfig {
                 ..indoors
             },
             SyntheticMotion::Rover => Self {
-                frames: 360,
                 fps: 15.0,
                 room: [3.0, 1.3, 4.0],
                 clutter: 12,
