@@ -109,6 +109,7 @@ def test_detect_batch_takes_encoded_files_and_keeps_going(sample):
 
 def test_a_long_batch_stops_on_ctrl_c():
     import _thread
+    import signal
     import threading
     import time
 
@@ -129,10 +130,16 @@ def test_a_long_batch_stops_on_ctrl_c():
         fired.append(time.perf_counter())
         _thread.interrupt_main()
 
-    threading.Timer(max(0.05, 3 * per_200), interrupt).start()
-    deadline = time.perf_counter() + 120
-    with pytest.raises(KeyboardInterrupt):
-        while time.perf_counter() < deadline:
-            det.detect_batch([image] * 8000)
+    # A process started in the background by a non-interactive shell inherits SIGINT ignored,
+    # and interrupt_main then does nothing: give the test Python's own handler.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        threading.Timer(max(0.05, 3 * per_200), interrupt).start()
+        deadline = time.perf_counter() + 120
+        with pytest.raises(KeyboardInterrupt):
+            while time.perf_counter() < deadline:
+                det.detect_batch([image] * 8000)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     # Stopped after the chunk in progress: well before the rest of the 40 × 200 images.
     assert time.perf_counter() - fired[0] < 10 * per_200
