@@ -4,7 +4,7 @@
 //! so no other child of the test process is counted. `benches/memory.sh` measures the same on a
 //! generated scene of any size.
 
-use std::process::Command;
+mod common;
 
 /// Issue 11's bar, in MiB.
 const LIMIT_MIB: i64 = 2048;
@@ -44,15 +44,10 @@ fn cpu_detect_on_24_megapixels_peaks_under_2_gb() {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("24mp.ppm");
     std::fs::write(&input, tiled_sample(6000, 4000)).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_steernav"))
-        .args(["detect", "--backend", "cpu"])
-        .arg(&input)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "steernav detect failed: {}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = common::run_ok(
+        common::steernav()
+            .args(["detect", "--backend", "cpu"])
+            .arg(&input),
     );
     let detection: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let found = detection["keypoints"].as_array().map_or(0, Vec::len);
