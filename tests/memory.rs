@@ -2,7 +2,9 @@
 //! runs as a child process on a 6000×4000 image tiled from the bundled sample, and its peak
 //! resident set is read back with `getrusage(RUSAGE_CHILDREN)`. This file holds this one test,
 //! so no other child of the test process is counted. `benches/memory.sh` measures the same on a
-//! generated scene of any size.
+//! generated scene of any size. `ru_maxrss` is in kibibytes on Linux only (bytes on macOS), and
+//! the bar is Linux's: the file is Linux's too.
+#![cfg(target_os = "linux")]
 
 mod common;
 
@@ -27,7 +29,6 @@ fn tiled_sample(width: u32, height: u32) -> Vec<u8> {
 }
 
 /// Peak resident set of the waited-for children, in MiB (`ru_maxrss` is in KiB on Linux).
-#[cfg(target_os = "linux")]
 fn children_peak_mib() -> i64 {
     let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
     // SAFETY: getrusage fills the struct it is given; RUSAGE_CHILDREN is a valid `who`.
@@ -37,8 +38,6 @@ fn children_peak_mib() -> i64 {
     unsafe { usage.assume_init() }.ru_maxrss / 1024
 }
 
-// ru_maxrss is kibibytes on Linux only (bytes on macOS); CI and the bar are Linux's.
-#[cfg(target_os = "linux")]
 #[test]
 fn cpu_detect_on_24_megapixels_peaks_under_2_gb() {
     let dir = tempfile::tempdir().unwrap();
