@@ -11,21 +11,15 @@ mod common;
 /// Issue 11's bar, in MiB.
 const LIMIT_MIB: i64 = 2048;
 
-/// The bundled 640×480 sample repeated over `width`×`height`, as a binary PPM: a real-looking
-/// texture at the density of the sample everywhere, built in milliseconds.
-fn tiled_sample(width: u32, height: u32) -> Vec<u8> {
+/// The bundled 640×480 sample repeated over `width`×`height`: a real-looking texture at the
+/// density of the sample everywhere, built in milliseconds.
+fn tiled_sample(width: u32, height: u32) -> image::RgbImage {
     let sample = image::open(concat!(env!("CARGO_MANIFEST_DIR"), "/assets/sample.png"))
         .expect("the bundled sample decodes")
         .to_rgb8();
-    let mut ppm = format!("P6\n{width} {height}\n255\n").into_bytes();
-    ppm.reserve(3 * (width * height) as usize);
-    for y in 0..height {
-        let row = y % sample.height();
-        for x in 0..width {
-            ppm.extend_from_slice(&sample.get_pixel(x % sample.width(), row).0);
-        }
-    }
-    ppm
+    image::RgbImage::from_fn(width, height, |x, y| {
+        *sample.get_pixel(x % sample.width(), y % sample.height())
+    })
 }
 
 /// Peak resident set of the waited-for children, in MiB (`ru_maxrss` is in KiB on Linux).
@@ -42,7 +36,7 @@ fn children_peak_mib() -> i64 {
 fn cpu_detect_on_24_megapixels_peaks_under_2_gb() {
     let dir = tempfile::tempdir().unwrap();
     let input = dir.path().join("24mp.ppm");
-    std::fs::write(&input, tiled_sample(6000, 4000)).unwrap();
+    tiled_sample(6000, 4000).save(&input).unwrap();
     let out = common::run_ok(
         common::steernav()
             .args(["detect", "--backend", "cpu"])

@@ -115,8 +115,7 @@ def test_a_long_batch_stops_on_ctrl_c():
 
     det = steernav.Detector(backend="cpu", max_keypoints=50)
     image = steernav.textured_scene(96, 72, 3)
-    # The pace of a warm detector: the first batch also builds the plan for this size and
-    # starts the thread pool, and timed alone it made the delay below outlast the whole batch.
+    # The pace of a warm detector (the first batch also builds the plan for this size).
     det.detect_batch([image] * 200)
     t0 = time.perf_counter()
     det.detect_batch([image] * 200)
