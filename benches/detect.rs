@@ -3,10 +3,10 @@
 //! on lavapipe they measure a CPU rasteriser, not a GPU.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use steernav::features::descriptor::describe;
-use steernav::features::filter_bank::steered_images;
-use steernav::features::merge::merge;
-use steernav::synth::textured_scene;
+use steernav::low_level::descriptor::describe;
+use steernav::low_level::filter_bank::steered_images;
+use steernav::low_level::merge::merge;
+use steernav::low_level::synth::textured_scene;
 use steernav::{Backend, Detector, DetectorConfig};
 
 fn stages(c: &mut Criterion) {
@@ -39,7 +39,7 @@ fn stages(c: &mut Criterion) {
         let ctx = gpu.gpu().expect("gpu backend").context().clone();
         group.bench_function("gpu/filter bank (steered images)", |b| {
             b.iter(|| {
-                steernav::features::filter_bank::gpu::steered_images(
+                steernav::low_level::filter_bank::gpu::steered_images(
                     &ctx,
                     &cfg,
                     &frame.gray,

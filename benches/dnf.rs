@@ -3,14 +3,14 @@
 //! neuron-steps per second (criterion's elements/s).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use steernav::nav::dnf::{bell, FieldBatch, FieldConfig};
+use steernav::low_level::dnf::{bell, FieldBatch, FieldConfig};
 
 const STEPS: usize = 100;
 
 fn fields(c: &mut Criterion) {
     let mut group = c.benchmark_group("dnf N=72, 100 steps");
     group.sample_size(10);
-    let gpu = steernav::gpu::GpuContext::shared().ok();
+    let gpu = steernav::GpuContext::shared().ok();
     for b in [1usize, 64, 4096] {
         let stimulus: Vec<f32> = (0..b)
             .flat_map(|i| bell(72, (i % 72) as f32, 5.0, 3.0))
@@ -21,9 +21,12 @@ fn fields(c: &mut Criterion) {
             bench.iter(|| cpu.step(&stimulus, STEPS).unwrap())
         });
         if let Some(ctx) = &gpu {
-            let mut field =
-                steernav::nav::dnf::GpuFieldBatch::new(ctx.clone(), FieldConfig::default(), b)
-                    .expect("fits");
+            let mut field = steernav::low_level::dnf::GpuFieldBatch::new(
+                ctx.clone(),
+                FieldConfig::default(),
+                b,
+            )
+            .expect("fits");
             group.bench_function(format!("gpu/B={b}"), |bench| {
                 bench.iter(|| {
                     field.step(&stimulus, STEPS).unwrap();

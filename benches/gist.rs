@@ -10,7 +10,7 @@ fn gist(c: &mut Criterion) {
     let mut group = c.benchmark_group("gist per image");
     group.sample_size(20);
     group.throughput(Throughput::Elements(1));
-    let frame = steernav::synth::textured_scene(320, 240, 5);
+    let frame = steernav::low_level::synth::textured_scene(320, 240, 5);
     for (name, config) in [
         ("256x256 reference", GistConfig::default()),
         ("64x64 simulator", VisualConfig::default().gist),
@@ -21,7 +21,7 @@ fn gist(c: &mut Criterion) {
         });
     }
     // The GPU bank (exact), FFT and direct DFTs. On lavapipe this measures a CPU rasteriser.
-    match steernav::gpu::GpuContext::shared() {
+    match steernav::GpuContext::shared() {
         Ok(ctx) => {
             use steernav::nav::gist::{GistMethod, GpuGist};
             let frames = vec![frame.clone(); 8];

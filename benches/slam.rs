@@ -4,9 +4,9 @@
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use nalgebra::Vector2;
+use steernav::low_level::ekf::{Filter, Observation};
+use steernav::low_level::motion::MotionModel;
 use steernav::slam::camera::PinholeCamera;
-use steernav::slam::ekf::{Filter, Observation};
-use steernav::slam::motion::MotionModel;
 
 fn filter_with(landmarks: usize, euclidean: bool) -> Filter {
     let camera = PinholeCamera::ideal(500.0, 500.0, 319.5, 239.5, 640, 480);

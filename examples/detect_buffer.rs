@@ -6,7 +6,7 @@ use steernav::{Backend, Detector, DetectorConfig, Frame};
 fn main() -> Result<(), steernav::Error> {
     // Stand-in for a camera frame: 320×240 RGB bytes, row after row.
     let (width, height) = (320u32, 240u32);
-    let rgb = steernav::synth::textured_scene(width, height, 3).rgb;
+    let rgb = steernav::low_level::synth::textured_scene(width, height, 3).rgb;
     let frame = Frame::from_rgb(width, height, rgb)?;
     let config = DetectorConfig {
         max_keypoints: 200,

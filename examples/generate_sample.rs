@@ -16,7 +16,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let frame = steernav::synth::textured_scene(width, height, 1);
+    let frame = steernav::low_level::synth::textured_scene(width, height, 1);
     let img = image::RgbImage::from_raw(frame.width, frame.height, frame.rgb).expect("valid frame");
     img.save(&path).expect("the output path is writable");
     println!("wrote {path}");

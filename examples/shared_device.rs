@@ -4,8 +4,8 @@
 //! `cargo run --release --example shared_device`.
 use std::sync::Arc;
 
-use steernav::gpu::GpuContext;
 use steernav::nav::gist::{GistConfig, GpuGist};
+use steernav::GpuContext;
 use steernav::{Detector, DetectorConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -25,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }))?;
     let context = Arc::new(GpuContext::from_device(device, queue, adapter.get_info()));
 
-    let frame = steernav::synth::textured_scene(320, 240, 5);
+    let frame = steernav::low_level::synth::textured_scene(320, 240, 5);
     let detector = Detector::with_context(Arc::clone(&context), &DetectorConfig::default())?;
     let found = detector.detect(&frame)?;
     let mut gist = GpuGist::new(Arc::clone(&context), GistConfig::default())?;

@@ -21,8 +21,9 @@
 //! | handle failures | [`Error`] (typed, sources kept) |
 //!
 //! The modules hold the rest: the evaluation ([`eval`]), the datasets and trajectories of
-//! SLAM ([`slam::data`]), the simulator ([`nav::sim`]), the GIST engines ([`nav::gist`]), and
-//! the stages' own drivers for those who test or extend them.
+//! SLAM ([`slam::data`]), the simulator ([`nav::sim`]), the GIST of an image ([`nav::gist`]),
+//! ROS 2 bags ([`bag`]). The stages' own drivers, for those who test, benchmark or extend
+//! them, are under [`low_level`].
 //!
 //! The library never prints: warnings and fallbacks go through `log`, errors are [`Error`].
 //! With `default-features = false` it builds without the CLI's crates.
@@ -76,12 +77,13 @@ macro_rules! named_variants {
 pub mod bag;
 pub mod error;
 pub mod features;
-pub mod gpu;
+mod gpu;
 pub mod image;
+pub mod low_level;
 mod moved;
-pub mod rng;
+mod rng;
 pub mod settings;
-pub mod shard;
+mod shard;
 pub(crate) mod simd;
 
 pub use error::{Error, Result};
@@ -98,4 +100,4 @@ pub mod output;
 #[cfg(feature = "plot")]
 pub(crate) mod plot;
 pub mod slam;
-pub mod synth;
+mod synth;

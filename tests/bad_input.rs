@@ -304,7 +304,7 @@ fn config_errors_name_the_real_key() {
 fn auto_never_takes_a_software_adapter() {
     // In CI the only adapter is lavapipe: `auto` must run on the CPU there.
     let detector = Detector::new(&DetectorConfig::default(), Backend::Auto).unwrap();
-    match steernav::gpu::GpuContext::shared() {
+    match steernav::GpuContext::shared() {
         Ok(ctx) if ctx.auto_refusal().is_some() => assert_eq!(detector.backend(), Backend::Cpu),
         Ok(_) => assert_eq!(detector.backend(), Backend::Gpu),
         Err(_) => assert_eq!(detector.backend(), Backend::Cpu),

@@ -1,7 +1,9 @@
 //! The dynamic neural field (eqs 28–31): a single stable peak at a bell-shaped stimulus that
 //! follows it when it moves, no peak below threshold, one winner between two stimuli.
 
-use steernav::nav::dnf::{bell, ring_distance, Activation, FieldBatch, FieldConfig, Interaction};
+use steernav::low_level::dnf::{
+    bell, ring_distance, Activation, FieldBatch, FieldConfig, Interaction,
+};
 
 const N: usize = 72;
 
@@ -188,7 +190,7 @@ fn gpu_fields_match_the_cpu() {
         }
         let mut cpu = FieldBatch::new(cfg.clone(), fields).unwrap();
         let mut gpu =
-            steernav::nav::dnf::GpuFieldBatch::new(ctx.clone(), cfg.clone(), fields).unwrap();
+            steernav::low_level::dnf::GpuFieldBatch::new(ctx.clone(), cfg.clone(), fields).unwrap();
         // 1500 steps: several dispatches, far past lavapipe's per-invocation loop cap if run in one.
         cpu.step(&stimulus, 1500).unwrap();
         gpu.step(&stimulus, 1500).unwrap();

@@ -9,7 +9,7 @@ use steernav::eval::homography::{self, IDENTITY};
 use steernav::eval::sweep::{
     homography_sequence, parse_angles, rotation_sweep, summarize, to_csv, EvalOptions, CSV_HEADER,
 };
-use steernav::synth::textured_scene;
+use steernav::low_level::synth::textured_scene;
 use steernav::DetectorConfig;
 
 fn save(frame: &steernav::Frame, path: &Path) {
@@ -78,7 +78,7 @@ fn homography_sequence_in_the_oxford_layout() {
     save(&scene, &dir.path().join("img1.png"));
     // img2: the scene rotated by 30° on an expanded canvas, with its ground truth H1to2p.
     let (cw, ch) = steernav::eval::sweep::expanded_canvas(400, 300, 30.0);
-    let (turned, m) = steernav::synth::rotate(&scene, 30f32.to_radians(), cw, ch);
+    let (turned, m) = steernav::low_level::synth::rotate(&scene, 30f32.to_radians(), cw, ch);
     save(&turned, &dir.path().join("img2.png"));
     let h = homography::from_affine(&m);
     let text: String = h

@@ -40,7 +40,7 @@ fn nav_controller_reaches_the_goal() {
 fn shared_device_runs_detector_and_gist_on_one_device() {
     let (ok, out) = example("shared_device");
     assert!(ok, "{out}");
-    if steernav::gpu::gpu_required() {
+    if steernav::low_level::gpu::gpu_required() {
         assert!(
             out.contains("gpu backend") && out.contains("GIST of 512"),
             "{out}"

@@ -17,7 +17,7 @@ fn gpu_gist_matches_the_cpu_reference_on_a_batch() {
     };
     let cpu = GistEngine::new(config.clone()).unwrap();
     let frames: Vec<_> = (0..3)
-        .map(|s| steernav::synth::textured_scene(96 + 16 * s, 80, 40 + s as u64))
+        .map(|s| steernav::low_level::synth::textured_scene(96 + 16 * s, 80, 40 + s as u64))
         .collect();
     for method in [GistMethod::Fft, GistMethod::Direct] {
         let mut gpu = GpuGist::with_method(ctx.clone(), config.clone(), method).unwrap();
@@ -55,7 +55,7 @@ fn the_default_gist_agrees_on_both_backends() {
     // map built on one matches descriptors computed on the other.
     let Some(ctx) = common::gpu() else { return };
     let config = GistConfig::default();
-    let frame = steernav::synth::textured_scene(400, 320, 12);
+    let frame = steernav::low_level::synth::textured_scene(400, 320, 12);
     let cpu = GistEngine::new(config.clone())
         .unwrap()
         .describe(&frame)

@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 use steernav::slam::config::SlamConfig;
 use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticSequence};
-use steernav::slam::tracker::Slam;
+use steernav::slam::Slam;
 use steernav::{DetectorConfig, Frame};
 
 fn golden(name: &str) -> PathBuf {

@@ -7,10 +7,10 @@
 
 mod common;
 
-use steernav::features::harris::CpuHarris;
-use steernav::features::harris::GpuHarris;
-use steernav::features::harris::HarrisPlan;
-use steernav::synth::textured_scene;
+use steernav::low_level::harris::CpuHarris;
+use steernav::low_level::harris::GpuHarris;
+use steernav::low_level::harris::HarrisPlan;
+use steernav::low_level::synth::textured_scene;
 use steernav::{Backend, Detector, DetectorConfig};
 
 const W: u32 = 192;
@@ -30,9 +30,9 @@ fn filter_bank_matches_cpu() {
             ..Default::default()
         };
         let gpu =
-            steernav::features::filter_bank::gpu::steered_images(&ctx, &cfg, &frame.gray, W, H)
+            steernav::low_level::filter_bank::gpu::steered_images(&ctx, &cfg, &frame.gray, W, H)
                 .unwrap();
-        let cpu = steernav::features::filter_bank::steered_images(
+        let cpu = steernav::low_level::filter_bank::steered_images(
             &cfg,
             &frame.gray,
             W as usize,

@@ -7,7 +7,7 @@ mod common;
 use common::{run_ok, steernav};
 use steernav::eval::matching::corner_error;
 use steernav::features::matching::{mutual_matches, verify, Verification};
-use steernav::synth::{rotate, textured_scene};
+use steernav::low_level::synth::{rotate, textured_scene};
 use steernav::DetectorConfig;
 
 fn correct(map: &[f64; 6], (x1, y1): (f64, f64), (x2, y2): (f64, f64)) -> bool {

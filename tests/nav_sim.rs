@@ -2,7 +2,7 @@
 //! should, episodes that reach the goal, and fusion beating LIDAR alone where the LIDAR is
 //! blind without losing where it is not.
 
-use steernav::nav::controller::Mode;
+use steernav::low_level::synth::Rng;
 use steernav::nav::gist::{Gist, GistEngine};
 use steernav::nav::sim::episode::{run, run_lockstep, EpisodeConfig, Fields, Outcome, Robot};
 use steernav::nav::sim::evaluate::fields;
@@ -11,7 +11,7 @@ use steernav::nav::sim::evaluate::{
 };
 use steernav::nav::sim::world::{Obstacle, Shape, World};
 use steernav::nav::visual::VisualObstacleModel;
-use steernav::synth::Rng;
+use steernav::nav::Mode;
 
 mod common;
 

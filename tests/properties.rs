@@ -8,8 +8,8 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use proptest::prelude::*;
+use steernav::low_level::synth::Rng;
 use steernav::settings::Settings;
-use steernav::synth::Rng;
 use steernav::{Backend, Detector, DetectorConfig, Frame};
 
 /// Runs `parse` on `text` written to a file named `name`; an error must name the file.
@@ -148,7 +148,7 @@ fn mutate(original: &[u8], rng: &mut Rng) -> Vec<u8> {
 #[test]
 fn seeded_fuzz_of_images_logs_and_settings_never_panics() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = steernav::synth::textured_scene(48, 40, 3);
+    let scene = steernav::low_level::synth::textured_scene(48, 40, 3);
     let img = image::RgbImage::from_raw(48, 40, scene.rgb).unwrap();
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)

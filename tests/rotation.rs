@@ -5,7 +5,7 @@
 mod common;
 
 use steernav::eval::repeatability::repeatability;
-use steernav::synth::{rotate, rotate90, textured_scene};
+use steernav::low_level::synth::{rotate, rotate90, textured_scene};
 use steernav::{Backend, Detection, Detector, DetectorConfig, Frame};
 
 /// Keypoint positions in the evaluation's f64.

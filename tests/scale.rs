@@ -5,7 +5,7 @@ mod common;
 
 use steernav::features::{DetectorConfig, Keypoint};
 use steernav::image::Frame;
-use steernav::synth::textured_scene;
+use steernav::low_level::synth::textured_scene;
 
 /// The frame magnified `z` times about its origin (bilinear): source pixel p lands at z·p.
 fn magnified(frame: &Frame, z: f64) -> Frame {

@@ -24,11 +24,11 @@ fn every_shader_validates_with_naga() {
     }
     // Each file is embedded by exactly one stage's driver, under its own name.
     let embedded: Vec<(&str, &str)> = [
-        &steernav::features::harris::gpu::SHADERS[..],
-        &steernav::features::filter_bank::gpu::SHADERS[..],
-        &steernav::features::steered::gpu::SHADERS[..],
-        &steernav::nav::dnf::gpu::SHADERS[..],
-        &steernav::nav::gist::gpu::SHADERS[..],
+        &steernav::low_level::harris::gpu::SHADERS[..],
+        &steernav::low_level::filter_bank::gpu::SHADERS[..],
+        &steernav::low_level::steered::gpu::SHADERS[..],
+        &steernav::low_level::dnf::gpu::SHADERS[..],
+        &steernav::low_level::gist::gpu::SHADERS[..],
     ]
     .concat();
     assert_eq!(embedded.len(), files.len());

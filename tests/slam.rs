@@ -5,20 +5,20 @@
 mod common;
 
 use nalgebra::{DMatrix, SymmetricEigen, Vector3, Vector4};
+use steernav::low_level::motion::{relative_motion, MotionModel, OdometryStep};
+use steernav::low_level::synth::Rng;
 use steernav::slam::camera::PinholeCamera;
 use steernav::slam::config::SlamConfig;
 use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::data::trajectory::{evaluate, Pose};
-use steernav::slam::motion::{relative_motion, MotionModel, OdometryStep};
-use steernav::slam::tracker::Slam;
-use steernav::synth::Rng;
+use steernav::slam::Slam;
 use steernav::{Backend, Detector, DetectorConfig, Frame};
 
 fn cpu_detector() -> Detector {
     common::cpu_detector(&DetectorConfig::default())
 }
 
-fn pose_of(r: &steernav::slam::tracker::FrameReport) -> Pose {
+fn pose_of(r: &steernav::slam::FrameReport) -> Pose {
     Pose {
         timestamp: r.timestamp,
         position: r.position.into(),
@@ -333,7 +333,7 @@ fn bad_input_gives_clear_errors() {
     let camera = PinholeCamera::ideal(200.0, 200.0, 79.5, 59.5, 160, 120);
     let detector = cpu_detector();
     let mut slam = Slam::new(camera, SlamConfig::default()).unwrap();
-    let frame = steernav::synth::textured_scene(160, 120, 1);
+    let frame = steernav::low_level::synth::textured_scene(160, 120, 1);
     slam.process(&frame, 1.0, None, &detector).unwrap();
     let message = slam
         .process(&frame, 0.5, None, &detector)
@@ -348,7 +348,7 @@ fn bad_input_gives_clear_errors() {
         .unwrap_err()
         .to_string();
     assert!(message.contains("timestamp"), "{message}");
-    let big = steernav::synth::textured_scene(320, 240, 1);
+    let big = steernav::low_level::synth::textured_scene(320, 240, 1);
     let message = slam
         .process(&big, 2.0, None, &detector)
         .unwrap_err()

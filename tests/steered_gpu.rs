@@ -7,8 +7,8 @@
 
 mod common;
 
-use steernav::features::steered::{describe_steered, GpuSteered};
-use steernav::synth::textured_scene;
+use steernav::low_level::steered::{describe_steered, GpuSteered};
+use steernav::low_level::synth::textured_scene;
 
 #[test]
 fn gpu_descriptors_match_the_cpu_twin() {
@@ -19,7 +19,7 @@ fn gpu_descriptors_match_the_cpu_twin() {
     let (w, h) = (frame.width as usize, frame.height as usize);
     // Every detection scale, sub-pixel positions, and points whose patch leaves the image.
     let sigmas = [1.0f32, 1.4, 1.96, 2.744, 3.8416];
-    let mut rng = steernav::synth::Rng(5);
+    let mut rng = steernav::low_level::synth::Rng(5);
     let points: Vec<(f32, f32, f32)> = (0..300)
         .map(|i| {
             (
@@ -83,7 +83,7 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
         {
             pairs += 1;
             on_levels += usize::from(a.scale >= 2.0);
-            let d = steernav::features::steered::cpu::distance(&a.descriptor, &b.descriptor);
+            let d = steernav::low_level::steered::cpu::distance(&a.descriptor, &b.descriptor);
             if d < 1e-2 {
                 agree += 1;
             }
@@ -103,10 +103,10 @@ fn descriptors_on_a_blurred_plane_match_the_cpu_twin() {
         return;
     };
     // A pyramid level carries a blur of 1 px: both twins smooth by what is missing.
-    use steernav::features::steered::cpu::describe_steered_blurred;
+    use steernav::low_level::steered::cpu::describe_steered_blurred;
     let frame = textured_scene(160, 120, 8);
     let (w, h) = (frame.width as usize, frame.height as usize);
-    let mut rng = steernav::synth::Rng(9);
+    let mut rng = steernav::low_level::synth::Rng(9);
     let points: Vec<(f32, f32, f32)> = (0..80)
         .map(|i| {
             (
@@ -142,7 +142,7 @@ fn planes_and_points_that_do_not_fit_are_refused() {
     let Some(ctx) = common::gpu() else {
         return;
     };
-    use steernav::features::steered::gpu::Plane;
+    use steernav::low_level::steered::gpu::Plane;
     let gray = vec![0.5f32; 64 * 48];
     let plane = Plane {
         gray: &gray,

@@ -36,7 +36,7 @@ fn textured_scene(
             "{width}x{height}: width and height must be ≥ 1, at most 100 MP in all"
         )));
     }
-    let frame = steernav_core::synth::textured_scene(width, height, seed);
+    let frame = steernav_core::low_level::synth::textured_scene(width, height, seed);
     let array =
         numpy::ndarray::Array3::from_shape_vec((height as usize, width as usize, 3), frame.rgb)
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;

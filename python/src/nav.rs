@@ -5,10 +5,8 @@ use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use steernav_core::nav::controller::{
-    Controller as CoreController, ControllerConfig, LaserScan, Mode,
-};
 use steernav_core::nav::gist::Gist;
+use steernav_core::nav::{Controller as CoreController, ControllerConfig, LaserScan, Mode};
 
 use crate::convert::*;
 

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use steernav_core::slam::camera::PinholeCamera;
 use steernav_core::slam::config::SlamConfig;
-use steernav_core::slam::tracker::{FrameReport as CoreFrameReport, Slam as CoreSlam};
+use steernav_core::slam::{FrameReport as CoreFrameReport, Slam as CoreSlam};
 use steernav_core::{Detector as CoreDetector, DetectorConfig};
 
 use crate::convert::*;

@@ -10,8 +10,8 @@ use std::sync::mpsc::sync_channel;
 use steernav::error::{Error, Result};
 use steernav::features::Detector;
 use steernav::image::Frame;
+use steernav::low_level::shard::Shard;
 use steernav::output::{write_atomic, ImageKeypoints};
-use steernav::shard::Shard;
 
 use clap::Args;
 

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 pub fn run() -> anyhow::Result<ExitCode> {
     println!("steernav {}", env!("CARGO_PKG_VERSION"));
     println!("cpu threads: {}", rayon::current_num_threads());
-    match steernav::gpu::GpuContext::shared() {
+    match steernav::GpuContext::shared() {
         Ok(ctx) => {
             println!("{}", ctx.describe());
             match ctx.auto_refusal() {
@@ -18,7 +18,7 @@ pub fn run() -> anyhow::Result<ExitCode> {
         }
         Err(e) => {
             println!("gpu: none ({e}); --backend auto will use the CPU");
-            Ok(if steernav::gpu::gpu_required() {
+            Ok(if steernav::low_level::gpu::gpu_required() {
                 ExitCode::FAILURE
             } else {
                 ExitCode::SUCCESS

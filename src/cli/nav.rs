@@ -4,12 +4,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use steernav::nav::controller::Mode;
 use steernav::nav::gist::{Gist, GistEngine};
 use steernav::nav::sim::episode::{run as run_episode, EpisodeConfig};
 use steernav::nav::sim::evaluate::{train_visual_model, EvalSettings};
 use steernav::nav::sim::figure::episode_figure;
 use steernav::nav::sim::world::World;
+use steernav::nav::Mode;
 
 use crate::args::{choice, BackendArg, ConfigArg};
 
@@ -43,7 +43,7 @@ pub struct NavCmd {
 
 pub(crate) fn field_gpu(
     backend: &BackendArg,
-) -> anyhow::Result<Option<std::sync::Arc<steernav::gpu::GpuContext>>> {
+) -> anyhow::Result<Option<std::sync::Arc<steernav::GpuContext>>> {
     Ok(backend.backend.resolve()?)
 }
 

@@ -3,10 +3,10 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use steernav::nav::controller::Mode;
 use steernav::nav::gist::{Gist, GistEngine};
 use steernav::nav::sim::evaluate::{train_visual_model, EvalSettings};
 use steernav::nav::sim::sweep::sweep;
+use steernav::nav::Mode;
 
 use crate::args::{choice, BackendArg, ConfigArg};
 use crate::nav::{config, field_gpu};

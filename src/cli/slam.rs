@@ -9,13 +9,13 @@ use anyhow::{bail, Context};
 use clap::Args;
 use steernav::bag::write::{self, BagWriter, PathOut, PointCloud2, PoseOut, PoseStamped};
 use steernav::bag::{frames as bag_frames, Bag, Topic};
+use steernav::low_level::motion::MotionModel;
 use steernav::slam::data::figure::{slam_figure, EstimatedPose};
 use steernav::slam::data::kitti;
 use steernav::slam::data::odometry::OdometryTrack;
 use steernav::slam::data::sequence::{self, Sequence};
 use steernav::slam::data::trajectory::{self, tum_line, Pose};
-use steernav::slam::motion::MotionModel;
-use steernav::slam::tracker::{FrameReport, Slam};
+use steernav::slam::{FrameReport, Slam};
 use steernav::{Frame, PinholeCamera};
 
 use crate::args::{progress, DetectorArgs};
@@ -369,7 +369,7 @@ fn truth_in_estimate_frame(estimate: &[Pose], truth: &[Pose]) -> Vec<Pose> {
         .collect()
 }
 
-fn write_map(path: &Path, map: &[steernav::slam::tracker::MapPoint]) -> anyhow::Result<()> {
+fn write_map(path: &Path, map: &[steernav::slam::MapPoint]) -> anyhow::Result<()> {
     let text = if path.extension().is_some_and(|e| e == "ply") {
         let mut s = format!(
             "ply\nformat ascii 1.0\ncomment steernav map\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",

@@ -68,7 +68,7 @@ named_variants!(Spread { Strongest => "strongest", Anms => "anms" });
 #[serde(rename_all = "lowercase")]
 pub enum DescriptorKind {
     /// 128 steered first-order responses in the keypoint's own frame, for matching
-    /// ([`crate::features::steered`]).
+    /// ([`crate::low_level::steered`]).
     Steered,
     /// The paper's five colour entropies (section 2.3, eqs 9–10).
     Entropy,

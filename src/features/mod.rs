@@ -1,17 +1,17 @@
 //! Rotation-invariant keypoints (paper section 2.2–2.3): steerable filter bank, multiscale
 //! Harris on every steered image, two-stage merge, 5-entropy colour descriptor.
 
-pub mod config;
+pub(crate) mod config;
 pub(crate) mod convolve;
-pub mod descriptor;
-pub mod detector;
-pub mod filter_bank;
-pub mod harris;
+pub(crate) mod descriptor;
+pub(crate) mod detector;
+pub(crate) mod filter_bank;
+pub(crate) mod harris;
 pub mod matching;
-pub mod merge;
+pub(crate) mod merge;
 pub(crate) mod pyramid;
 pub(crate) mod steerable;
-pub mod steered;
+pub(crate) mod steered;
 
 use serde::{Deserialize, Serialize};
 

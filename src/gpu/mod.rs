@@ -7,4 +7,4 @@ pub(crate) mod layout;
 pub(crate) mod pipelines;
 pub(crate) mod util;
 
-pub use context::{gpu_required, GpuContext};
+pub use context::GpuContext;

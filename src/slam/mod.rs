@@ -2,9 +2,9 @@
 //! 13–27), fed by steernav keypoints.
 //!
 //! - [`camera`]: pinhole + distortion (eq 20), the stereo pair (eqs 1–2), calibration files.
-//! - [`motion`]: constant-velocity and odometry motion models (eqs 15–16).
-//! - [`ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
-//! - [`tracker`]: the per-frame loop (eqs 25–27, map management), in rooms.
+//! - [`crate::low_level::motion`]: constant-velocity and odometry motion models (eqs 15–16).
+//! - [`crate::low_level::ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
+//! - [`Slam`]: the per-frame loop (eqs 25–27, map management), in rooms.
 //! - [`config`]: every setting, in the `[slam.*]` sub-tables.
 //! - [`data`]: what is around the filter — sequences on disk (TUM, EuRoC, KITTI, plain
 //!   folders), trajectories and their evaluation, the generated sequences, the figure.
@@ -13,12 +13,12 @@ pub(crate) mod association;
 pub mod camera;
 pub mod config;
 pub mod data;
-pub mod ekf;
+pub(crate) mod ekf;
 pub(crate) mod inverse_depth;
 pub(crate) mod klt;
-pub mod motion;
+pub(crate) mod motion;
 pub(crate) mod rotation;
-pub mod tracker;
+pub(crate) mod tracker;
 pub(crate) mod two_view;
 
 pub use config::SlamConfig;

@@ -9,7 +9,8 @@ use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
-use steernav::gpu::{gpu_required, GpuContext};
+use steernav::low_level::gpu::gpu_required;
+use steernav::GpuContext;
 use steernav::{Backend, Detection, Detector, DetectorConfig};
 
 /// The CLI built for this test run.

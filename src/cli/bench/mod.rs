@@ -12,7 +12,7 @@ use clap::{Args, ValueEnum};
 use serde::Serialize;
 use steernav::error::Result;
 use steernav::features::{Backend, Detection, Detector, DetectorConfig};
-use steernav::synth::textured_scene;
+use steernav::low_level::synth::textured_scene;
 
 use crate::args::{choice, ConfigArg, DetectorFlags};
 
@@ -81,12 +81,12 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
     }
     let config = cmd.flags.apply(cmd.config.settings()?.detector)?;
     let adapter = if backends.contains(&Backend::Gpu) {
-        match steernav::gpu::GpuContext::shared() {
+        match steernav::GpuContext::shared() {
             Ok(ctx) => Some(format!(
                 "{} ({:?}, {:?})",
                 ctx.info.name, ctx.info.backend, ctx.info.device_type
             )),
-            Err(e) if !steernav::gpu::gpu_required() => {
+            Err(e) if !steernav::low_level::gpu::gpu_required() => {
                 log::warn!("{e}; timing the CPU only");
                 backends.retain(|b| *b != Backend::Gpu);
                 None

@@ -7,12 +7,12 @@ use std::time::Instant;
 use crate::bench::{percentile, BenchRow};
 use steernav::error::Result;
 use steernav::features::Backend;
-use steernav::gpu::GpuContext;
-use steernav::nav::dnf::GpuFieldBatch;
-use steernav::nav::dnf::{bell, FieldBatch, FieldConfig};
+use steernav::low_level::dnf::GpuFieldBatch;
+use steernav::low_level::dnf::{bell, FieldBatch, FieldConfig};
 use steernav::nav::gist::GpuGist;
 use steernav::nav::gist::{GistConfig, GistEngine};
 use steernav::nav::visual::VisualConfig;
+use steernav::GpuContext;
 
 /// Euler steps per timed field run.
 pub const FIELD_STEPS: usize = 100;
@@ -58,7 +58,7 @@ pub fn run(
     progress: &indicatif::ProgressBar,
 ) -> Result<Vec<BenchRow>> {
     let mut rows = Vec::new();
-    let frame = steernav::synth::textured_scene(320, 240, 5);
+    let frame = steernav::low_level::synth::textured_scene(320, 240, 5);
     let gist_configs = [
         ("256x256", GistConfig::default()),
         ("64x64", VisualConfig::default().gist),

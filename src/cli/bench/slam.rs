@@ -8,7 +8,7 @@ use steernav::error::Result;
 use steernav::features::{Backend, Detector, DetectorConfig};
 use steernav::slam::config::SlamConfig;
 use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
-use steernav::slam::tracker::{FrameReport, Slam};
+use steernav::slam::{FrameReport, Slam};
 
 /// One size and backend.
 #[derive(Clone, Debug, Serialize)]

@@ -1,4 +1,5 @@
-//! CPU twin of the steered descriptor (see [`super`]); the GPU twin is [`super::gpu`]
+//! CPU twin of the steered descriptor (see [`crate::low_level::steered`]); the GPU twin is
+//! [`crate::low_level::steered::gpu`]
 //! (`shaders/steered_descriptor.wgsl`), which follows this arithmetic step for step.
 
 use std::f32::consts::TAU;

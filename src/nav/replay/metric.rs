@@ -86,8 +86,8 @@ impl Deviation {
     }
 }
 
-/// The scanner's field of view of a scan (see [`field_of_view`]); a scan whose beams were all
-/// dropped sees nothing.
+/// The scanner's field of view of a scan (its first and last bearings, widened by half a beam
+/// each side); a scan whose beams were all dropped sees nothing.
 pub fn view_of(scan: &Scan) -> (f32, f32) {
     field_of_view(&scan.bearings, scan.angle_increment).unwrap_or((0.0, 0.0))
 }

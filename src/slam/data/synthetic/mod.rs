@@ -1,8 +1,8 @@
 //! A synthetic monocular sequence with exact ground truth: a camera moving inside a box whose
 //! walls carry seeded procedural textures, with furniture-like clutter in front of them
-//! ([`scene`]), rendered by ray casting through the calibrated (optionally distorted) camera,
+//! (`scene`), rendered by ray casting through the calibrated (optionally distorted) camera,
 //! with optional motion blur, auto-exposure and sensor noise (`degrade`). Four motions
-//! ([`motion`]): a hand-held loop in a room, a car driving down a street-sized box at 10 Hz
+//! (`motion`): a hand-held loop in a room, a car driving down a street-sized box at 10 Hz
 //! with turns (scene depths 3–50 m), a person walking through one or two cluttered rooms while
 //! looking around (30 Hz), and a wheeled robot that drives and turns in place (15 Hz, camera
 //! 0.3 m above the floor). Tests use it to check that the filter converges; `steernav
