@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 
 use super::steerable::{Kernel1d, Separable};
-use crate::simd::fold_into;
+use crate::simd::fold_terms;
 
 /// Symmetry of a kernel about its centre, which halves the multiplications.
 #[derive(Clone, Copy, PartialEq)]
@@ -38,29 +38,27 @@ pub fn column_at<'a>(
     out: &mut [f32],
 ) {
     let r = kernel.radius() as isize;
-    out.fill(0.0);
-    let par = parity(&kernel.taps);
-    if par == Parity::None {
-        for (i, &k) in kernel.taps.iter().enumerate() {
+    let taps = &kernel.taps;
+    let row = &row;
+    match parity(taps) {
+        Parity::None => fold_terms(out, taps.len(), |i| {
             let src = row(y + i as isize - r);
-            fold_into(out, src, src, k, 0.0);
+            (src, src, taps[i], 0.0)
+        }),
+        par => {
+            let sign = if par == Parity::Even { 1.0 } else { -1.0 };
+            // The centre tap (absent from odd kernels), then taps[r + t], which multiplies row
+            // y + t, with taps[r − t] = sign · taps[r + t].
+            let first = usize::from(taps[r as usize] == 0.0);
+            fold_terms(out, r as usize + 1 - first, |i| {
+                let t = (i + first) as isize;
+                if t == 0 {
+                    (row(y), row(y), taps[r as usize], 0.0)
+                } else {
+                    (row(y + t), row(y - t), taps[(r + t) as usize], sign)
+                }
+            })
         }
-        return;
-    }
-    let sign = if par == Parity::Even { 1.0 } else { -1.0 };
-    let centre = kernel.taps[r as usize];
-    if centre != 0.0 {
-        fold_into(out, row(y), row(y), centre, 0.0);
-    }
-    for t in 1..=r {
-        // taps[r + t] multiplies row y + t; taps[r − t] = sign · taps[r + t].
-        fold_into(
-            out,
-            row(y + t),
-            row(y - t),
-            kernel.taps[(r + t) as usize],
-            sign,
-        );
     }
 }
 
@@ -106,33 +104,21 @@ pub fn row_at(
 fn fold_padded(padded: &[f32], kernel: &Kernel1d, out: &mut [f32]) {
     let r = kernel.radius();
     let width = out.len();
-    let par = parity(&kernel.taps);
-    out.fill(0.0);
-    if par == Parity::None {
-        for (i, &k) in kernel.taps.iter().enumerate() {
-            fold_into(out, &padded[i..i + width], &padded[i..i + width], k, 0.0);
+    let taps = &kernel.taps;
+    match parity(taps) {
+        Parity::None => fold_terms(out, taps.len(), |i| {
+            let src = &padded[i..i + width];
+            (src, src, taps[i], 0.0)
+        }),
+        par => {
+            let sign = if par == Parity::Even { 1.0 } else { -1.0 };
+            let first = usize::from(taps[r] == 0.0);
+            fold_terms(out, r + 1 - first, |i| {
+                let t = i + first;
+                let (right, left) = (&padded[r + t..r + t + width], &padded[r - t..r - t + width]);
+                (right, left, taps[r + t], if t == 0 { 0.0 } else { sign })
+            })
         }
-        return;
-    }
-    let sign = if par == Parity::Even { 1.0 } else { -1.0 };
-    let centre = kernel.taps[r];
-    if centre != 0.0 {
-        fold_into(
-            out,
-            &padded[r..r + width],
-            &padded[r..r + width],
-            centre,
-            0.0,
-        );
-    }
-    for t in 1..=r {
-        fold_into(
-            out,
-            &padded[r + t..r + t + width],
-            &padded[r - t..r - t + width],
-            kernel.taps[r + t],
-            sign,
-        );
     }
 }
 

@@ -10,7 +10,7 @@ use super::plan::{harris_response, HarrisPlan};
 use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::pyramid::Pyramid;
 use crate::features::Candidate;
-use crate::simd::{axpy, max_or};
+use crate::simd::{max_or, tensor_responses};
 
 /// Rows `[first_row, first_row + rows)` of one scale's grid, for every orientation (layout
 /// `[θ][row][i]`).
@@ -257,7 +257,6 @@ struct BandScratch {
     products: Vec<f32>,
     blurred_row: Vec<f32>,
     q: Vec<f32>,
-    m: Vec<f32>,
 }
 
 /// Grid rows per parallel band: enough rows that the halo the window needs above and below
@@ -313,7 +312,6 @@ fn scale_responses(
             b.products.resize(products * rows * gw, 0.0);
             b.blurred_row.resize(gw, 0.0);
             b.q.resize(products * gw, 0.0);
-            b.m.resize(3 * gw, 0.0);
             // Derivative planes D_k at the grid's samples (eqs 5–6 through the steerable basis).
             for (kk, filter) in scale.derivatives.iter().enumerate() {
                 for jj in jl..=jh {
@@ -366,13 +364,6 @@ fn scale_responses(
                 }
                 // R = det M − k tr² M for every orientation (eq 8).
                 for (t, entries) in terms.iter().enumerate() {
-                    for (e, list) in entries.iter().enumerate() {
-                        let acc = &mut b.m[e * gw..(e + 1) * gw];
-                        acc.fill(0.0);
-                        for &(q, w) in list {
-                            axpy(acc, &b.q[q * gw..(q + 1) * gw], w);
-                        }
-                    }
                     // SAFETY: band `band` writes only grid rows [j0, j1) of each orientation plane,
                     // which no other band touches, and `out` outlives the parallel loop.
                     let r = unsafe {
@@ -381,11 +372,9 @@ fn scale_responses(
                             gw,
                         )
                     };
-                    let (mxx, rest) = b.m.split_at(gw);
-                    let (mxy, myy) = rest.split_at(gw);
-                    for (i, r) in r.iter_mut().enumerate() {
-                        *r = harris_response(mxx[i], mxy[i], myy[i], k);
-                    }
+                    tensor_responses(&b.q, entries, r, |xx, xy, yy| {
+                        harris_response(xx, xy, yy, k)
+                    });
                     peak = max_or(r, peak);
                 }
             }
