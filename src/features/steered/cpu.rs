@@ -24,6 +24,7 @@ struct Patch {
 impl Patch {
     /// The `side`×`side` window whose centre pixel is nearest (x, y), smoothed with `kernel`
     /// (borders clamped), and its central-difference gradient.
+    #[inline(always)]
     fn around(
         gray: &[f32],
         width: usize,
@@ -95,6 +96,7 @@ impl Patch {
     }
 
     /// Offsets from the sub-pixel centre c of the patch's columns (or rows) starting at `o`.
+    #[inline(always)]
     fn offsets(&self, o: i64, c: f32) -> Vec<f32> {
         (0..self.side).map(|i| (o + i as i64) as f32 - c).collect()
     }
@@ -102,6 +104,7 @@ impl Patch {
 
 /// exp(−d²/(2σ²)) for each offset: the Gaussian window is separable, so a patch needs 2·side
 /// exponentials instead of side². The GPU twin multiplies the same two factors.
+#[inline(always)]
 fn gaussian_factors(offsets: &[f32], sigma: f32) -> Vec<f32> {
     offsets
         .iter()
@@ -128,6 +131,37 @@ pub fn describe_steered_blurred(
     gray: &[f32],
     width: usize,
     height: usize,
+    point: (f32, f32, f32),
+    prior_blur: f32,
+) -> Steered {
+    #[cfg(target_arch = "x86_64")]
+    if crate::simd::has_avx2_fma() {
+        // SAFETY: the CPU supports AVX2 (checked above).
+        return unsafe { describe_avx2(gray, width, height, point, prior_blur) };
+    }
+    describe(gray, width, height, point, prior_blur)
+}
+
+/// [`describe`] compiled for AVX2: the smoothing, gradient and weighting loops run 8 lanes
+/// wide instead of 4. Rust never contracts a multiply and an add into an FMA unless told to,
+/// so the arithmetic, and every descriptor, is the baseline build's bit for bit.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn describe_avx2(
+    gray: &[f32],
+    width: usize,
+    height: usize,
+    point: (f32, f32, f32),
+    prior_blur: f32,
+) -> Steered {
+    describe(gray, width, height, point, prior_blur)
+}
+
+#[inline(always)]
+fn describe(
+    gray: &[f32],
+    width: usize,
+    height: usize,
     (x, y, sigma): (f32, f32, f32),
     prior_blur: f32,
 ) -> Steered {
@@ -148,23 +182,31 @@ pub fn describe_steered_blurred(
         gaussian_factors(&dxs, weight_sigma),
         gaussian_factors(&dys, weight_sigma),
     );
+    // Row by row: first every pixel's place in the frame, weight and direction bin in loops
+    // without branches (they vectorise), then the votes of the pixels inside the window.
+    let side = patch.side;
+    let mut votes = vec![Vote::default(); side];
     for (j, &dy) in dys.iter().enumerate() {
-        for (i, &dx) in dxs.iter().enumerate() {
-            let k = j * patch.side + i;
-            let magnitude = patch.magnitude[k];
+        let magnitude = &patch.magnitude[j * side..(j + 1) * side];
+        let direction = &patch.direction[j * side..(j + 1) * side];
+        for ((((vote, &dx), &m), &d), &wx) in votes
+            .iter_mut()
+            .zip(&dxs)
+            .zip(magnitude)
+            .zip(direction)
+            .zip(&gx)
+        {
             // The pixel in the keypoint's frame, in cells, with cell centres at integers.
             let u = (cos * dx + sin * dy) / cell + 0.5 * CELLS as f32 - 0.5;
             let v = (-sin * dx + cos * dy) / cell + 0.5 * CELLS as f32 - 0.5;
-            if u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32 {
-                continue;
-            }
-            if magnitude == 0.0 {
-                continue;
-            }
-            let w = magnitude * (gx[i] * gy[j]);
+            vote.inside =
+                !(u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32) & (m != 0.0);
+            vote.weight = m * (wx * gy[j]);
             // Direction of steepest steered response relative to the frame.
-            let phi = wrap_angle(patch.direction[k] - orientation) * to_bin;
-            vote(&mut padded, (u, v, phi), w);
+            vote.at = (u, v, wrap_angle(d - orientation) * to_bin);
+        }
+        for vote in votes.iter().filter(|v| v.inside) {
+            trilinear(&mut padded, vote.at, vote.weight);
         }
     }
     let mut hist = vec![0.0f32; STEERED_LEN];
@@ -186,6 +228,15 @@ pub fn describe_steered_blurred(
     }
 }
 
+/// One pixel's vote: its place in the frame (cells, cells, direction bins), its weight, and
+/// whether it lies inside the window with a gradient.
+#[derive(Clone, Copy, Default)]
+struct Vote {
+    at: (f32, f32, f32),
+    weight: f32,
+    inside: bool,
+}
+
 /// Cells per side of the histogram the votes go to: the 4×4 and a spare ring around it.
 const PADDED_CELLS: usize = CELLS + 2;
 /// Length of that histogram.
@@ -194,8 +245,8 @@ const PADDED_LEN: usize = PADDED_CELLS * PADDED_CELLS * DIRECTIONS;
 /// Adds a pixel's weight `w` to the 2×2×2 bins around (u, v, φ) (cells, cells, direction
 /// bins) with trilinear weights, in the padded histogram: u and v lie in (−1, CELLS), so the
 /// cells reached are 0 … CELLS + 1 after the shift by one.
-#[inline]
-fn vote(hist: &mut [f32; PADDED_LEN], (u, v, phi): (f32, f32, f32), w: f32) {
+#[inline(always)]
+fn trilinear(hist: &mut [f32; PADDED_LEN], (u, v, phi): (f32, f32, f32), w: f32) {
     let (u0, v0, p0) = (floor(u), floor(v), phi as i32 as f32);
     let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
     let (cu, cv, d) = ((u0 + 1.0) as usize, (v0 + 1.0) as usize, p0 as usize);
@@ -209,6 +260,7 @@ fn vote(hist: &mut [f32; PADDED_LEN], (u, v, phi): (f32, f32, f32), w: f32) {
     }
 }
 
+#[inline(always)]
 fn normalise(v: &mut [f32]) {
     let norm = v.iter().map(|x| x * x).sum::<f32>().sqrt();
     if norm > 0.0 {
@@ -221,6 +273,7 @@ fn normalise(v: &mut [f32]) {
 /// θ* in [0, 2π): the peak of the magnitude-weighted histogram of gradient directions within
 /// a Gaussian window of σ `sigma`, smoothed twice with [1, 2, 1]/4 and refined by a
 /// parabola. `dxs`, `dys`: the offsets of the patch's columns and rows from the keypoint.
+#[inline(always)]
 fn dominant_orientation(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32) -> f32 {
     let mut hist = [0.0f32; ORIENTATION_BINS];
     let to_bin = ORIENTATION_BINS as f32 / TAU;

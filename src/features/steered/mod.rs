@@ -67,6 +67,7 @@ pub(crate) fn patch_geometry(sigma: f32, prior_blur: f32) -> (usize, Kernel1d) {
 }
 
 /// The pixel nearest a sub-pixel coordinate (halves round up on both backends).
+#[inline(always)]
 pub(crate) fn nearest_pixel(v: f32) -> i64 {
     (v + 0.5).floor() as i64
 }
@@ -74,6 +75,7 @@ pub(crate) fn nearest_pixel(v: f32) -> i64 {
 /// atan2(y, x) in [−π, π] to within 1e-5 rad: a polynomial on [0, 1] and the octant's
 /// symmetries. Four times cheaper than the library's on the CPU, and written out so that
 /// `shaders/steered_descriptor.wgsl` computes it the same way. (0, 0) gives 0.
+#[inline(always)]
 pub(crate) fn fast_atan2(y: f32, x: f32) -> f32 {
     use std::f32::consts::{FRAC_PI_2, PI};
     let (ax, ay) = (x.abs(), y.abs());
@@ -98,12 +100,13 @@ pub(crate) fn fast_atan2(y: f32, x: f32) -> f32 {
 }
 
 /// `a` wrapped into [0, 2π), written out so both backends compute it the same way.
+#[inline(always)]
 pub(crate) fn wrap_angle(a: f32) -> f32 {
     a - std::f32::consts::TAU * floor(a / std::f32::consts::TAU)
 }
 
 /// floor(t) for |t| < 2³¹, inline (the baseline x86-64 target calls the library for it).
-#[inline]
+#[inline(always)]
 pub(crate) fn floor(t: f32) -> f32 {
     let f = t as i32 as f32;
     if f > t {
