@@ -208,6 +208,56 @@ unsafe fn fold_into_avx2(out: &mut [f32], a: &[f32], b: &[f32], k: f32, sign: f3
     }
 }
 
+/// `maxima[x]` for x in `columns`: whether `mid[x]` exceeds `threshold` and its 8 neighbours
+/// in the rows `[up, mid, down]`, in a branch-free pass (the 3×3 test of the suppression,
+/// 8 lanes wide with AVX2). Comparisons round nothing, so both builds agree exactly.
+#[inline]
+pub fn strict_maxima(
+    rows: [&[f32]; 3],
+    threshold: f32,
+    columns: std::ops::Range<usize>,
+    maxima: &mut [bool],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx2_fma() {
+        // SAFETY: the CPU supports AVX2 (checked above).
+        return unsafe { strict_maxima_avx2(rows, threshold, columns, maxima) };
+    }
+    strict_maxima_with(rows, threshold, columns, maxima);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn strict_maxima_avx2(
+    rows: [&[f32]; 3],
+    threshold: f32,
+    columns: std::ops::Range<usize>,
+    maxima: &mut [bool],
+) {
+    strict_maxima_with(rows, threshold, columns, maxima);
+}
+
+#[inline(always)]
+fn strict_maxima_with(
+    [up, mid, down]: [&[f32]; 3],
+    threshold: f32,
+    columns: std::ops::Range<usize>,
+    maxima: &mut [bool],
+) {
+    for x in columns {
+        let v = mid[x];
+        maxima[x] = (v > threshold)
+            & (v > mid[x - 1])
+            & (v > mid[x + 1])
+            & (v > up[x - 1])
+            & (v > up[x])
+            & (v > up[x + 1])
+            & (v > down[x - 1])
+            & (v > down[x])
+            & (v > down[x + 1]);
+    }
+}
+
 /// The largest value of `values`, or `floor` when none exceeds it. Eight independent lanes
 /// with a compare-and-select each: the form the compiler turns into vector max instructions
 /// (a running `f32::max` is a serial chain it cannot vectorise, and cost the Harris response

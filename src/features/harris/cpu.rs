@@ -10,7 +10,7 @@ use super::plan::{harris_response, HarrisPlan};
 use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::pyramid::Pyramid;
 use crate::features::Candidate;
-use crate::simd::{max_or, tensor_responses};
+use crate::simd::{max_or, strict_maxima, tensor_responses};
 
 /// Rows `[first_row, first_row + rows)` of one scale's grid, for every orientation (layout
 /// `[θ][row][i]`).
@@ -452,18 +452,7 @@ fn suppress(
                 // Strict maxima of the 3×3 same-scale neighbourhood above the threshold, in a
                 // branch-free pass the compiler vectorises; the rare survivors get the rest.
                 let (up, mid, down) = (row(s, t, y - 1), row(s, t, y), row(s, t, y + 1));
-                for x in m..gw - m {
-                    let v = mid[x];
-                    maxima[x] = (v > threshold)
-                        & (v > mid[x - 1])
-                        & (v > mid[x + 1])
-                        & (v > up[x - 1])
-                        & (v > up[x])
-                        & (v > up[x + 1])
-                        & (v > down[x - 1])
-                        & (v > down[x])
-                        & (v > down[x + 1]);
-                }
+                strict_maxima([up, mid, down], threshold, m..gw - m, &mut maxima);
                 for x in (m..gw - m).filter(|&x| maxima[x]) {
                     let v = mid[x];
                     let (px, py) = (x * g, y * g);
