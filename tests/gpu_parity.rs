@@ -314,3 +314,34 @@ fn frames_in_flight_give_the_results_of_one_frame_at_a_time() {
     });
     assert_eq!(seen, [0, 1, 99, 2, 3]);
 }
+
+/// One GPU detector shared by four threads (a Python thread pool, a robot's camera threads):
+/// every detection is the one a lone thread gets for that frame. The synchronous slot used
+/// to be released between a frame's submission and its readback, so a thread could read
+/// another's candidates, or hang waiting for a mapping that waited for the other's frame.
+#[test]
+fn one_gpu_detector_shared_by_four_threads_gives_each_frame_its_own_keypoints() {
+    let Some(ctx) = common::gpu() else {
+        return;
+    };
+    let detector = Detector::with_context(ctx, &DetectorConfig::default()).unwrap();
+    let frames: Vec<_> = (0..4)
+        .map(|seed| textured_scene(192, 144, 40 + seed))
+        .collect();
+    let alone: Vec<_> = frames
+        .iter()
+        .map(|f| common::points(&detector.detect(f).unwrap()))
+        .collect();
+    std::thread::scope(|scope| {
+        for t in 0..4 {
+            let (detector, frames, alone) = (&detector, &frames, &alone);
+            scope.spawn(move || {
+                for round in 0..6 {
+                    let i = (t + round) % frames.len();
+                    let found = common::points(&detector.detect(&frames[i]).unwrap());
+                    assert!(found == alone[i], "thread {t}, round {round}, frame {i}");
+                }
+            });
+        }
+    });
+}

@@ -120,15 +120,28 @@ pub fn read_staging_after(
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
     });
-    device
-        .poll(wgpu::PollType::Wait {
-            submission_index: submission,
-            timeout: None,
-        })
-        .map_err(|e| gpu_error("waiting for the device", e))?;
-    rx.recv()
-        .map_err(|e| gpu_error("the readback's map callback never ran", e))?
-        .map_err(|e| gpu_error("mapping the readback buffer", e))?;
+    let wait = |submission_index| {
+        device
+            .poll(wgpu::PollType::Wait {
+                submission_index,
+                timeout: None,
+            })
+            .map_err(|e| gpu_error("waiting for the device", e))
+    };
+    wait(submission)?;
+    // The mapping completes once every submission that uses the buffer has run, which may be
+    // a later one than `submission`; then wait for all of them. Blocking on the channel
+    // instead would hang whenever no other thread polls the device.
+    let mapped = match rx.try_recv() {
+        Ok(mapped) => mapped,
+        Err(_) => {
+            wait(None)?;
+            rx.try_recv().map_err(|e| {
+                gpu_error("the readback was still not mapped with the device idle", e)
+            })?
+        }
+    };
+    mapped.map_err(|e| gpu_error("mapping the readback buffer", e))?;
     let data = slice
         .get_mapped_range()
         .map_err(|e| gpu_error("reading the mapped range", e))?

@@ -46,6 +46,12 @@ impl GpuHarris {
     /// One tile (or the whole frame) through every pass and its readback, on the slot kept
     /// for synchronous runs.
     pub(super) fn run_tile(&self, gray: &[f32], tile: &Tile) -> Result<TileRun> {
+        // Without it, a second thread's frame could be uploaded and submitted on the same
+        // resources between this one's submission and its readback: this thread would read
+        // the other frame's candidates, or wait for ever on a readback whose mapping waits for
+        // the other submission while that thread waits for `frames` (one detector shared by
+        // four Python threads hung about once in 15–60 runs).
+        let _serial = self.sync_slot.lock().unwrap_or_else(|e| e.into_inner());
         let (submission, slot) = self.submit_tile(gray, tile, SYNC_SLOT)?;
         self.finish_tile(tile, slot, submission)
     }

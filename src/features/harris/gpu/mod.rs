@@ -226,6 +226,9 @@ pub struct GpuHarris {
     frames: Mutex<Vec<FrameResources>>,
     /// Which in-flight slots hold a submitted frame not finished yet.
     busy: Mutex<[bool; FLIGHT_SLOTS]>,
+    /// Held by a synchronous run from its upload to its readback: the synchronous slot is one
+    /// set of resources, and `frames` is released between the submission and the wait.
+    sync_slot: Mutex<()>,
 }
 
 impl GpuHarris {
@@ -263,6 +266,7 @@ impl GpuHarris {
             pyramid_kernels,
             frames: Mutex::new(Vec::new()),
             busy: Mutex::new([false; FLIGHT_SLOTS]),
+            sync_slot: Mutex::new(()),
         }
     }
 
