@@ -142,3 +142,25 @@ def test_a_long_batch_stops_on_ctrl_c():
         signal.signal(signal.SIGINT, previous)
     # Stopped after the chunk in progress: well before the rest of the 40 × 200 images.
     assert time.perf_counter() - fired[0] < 10 * per_200
+
+
+def test_one_gpu_detector_shared_by_a_thread_pool(sample):
+    """Four threads on one GPU detector (the GIL is released during detection): each frame
+    gets its own keypoints, and the pool finishes (it used to hang once in 15-60 runs)."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    try:
+        det = steernav.Detector(backend="gpu", max_keypoints=200)
+    except Exception:
+        if os.environ.get("STEERNAV_REQUIRE_GPU") == "1":
+            raise
+        pytest.skip("no GPU adapter")
+    corners = [(0, 0), (100, 200), (300, 400), (200, 50)]
+    frames = [sample[y : y + 144, x : x + 192].copy() for y, x in corners]
+    alone = [det.detect(f).xy for f in frames]
+    jobs = [i % len(frames) for i in range(24)]
+    with ThreadPoolExecutor(4) as pool:
+        found = list(pool.map(lambda i: det.detect(frames[i]).xy, jobs))
+    for i, xy in zip(jobs, found):
+        assert np.array_equal(xy, alone[i]), i
