@@ -1121,7 +1121,10 @@ fn batch_into_its_own_input_and_absurd_frame_rates_are_refused() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("fps"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("fps = 1e-320: must be a rate"),
+        "{err}"
+    );
 }
 
 #[test]

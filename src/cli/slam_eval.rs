@@ -56,7 +56,7 @@ pub fn run(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
             None => {
                 if !(cmd.fps.is_finite() && (1e-5..=1e6).contains(&cmd.fps)) {
                     bail!(
-                        "--fps {}: must be a rate in [1e-5, 1e6] frames per second",
+                        "--fps {:e}: must be a rate in [1e-5, 1e6] frames per second",
                         cmd.fps
                     );
                 }

@@ -109,10 +109,25 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
             source: std::io::Error::new(std::io::ErrorKind::NotFound, "not a directory"),
         });
     }
+    // A given rate is checked even where the layout brings its own timestamps, and a warning
+    // says it is not used there.
+    if let Some(f) = fps {
+        checked_fps(f)?;
+    }
+    let ignored = |stamps: &Path| {
+        if fps.is_some() {
+            log::warn!(
+                "{}: the frame rate given is not used: the timestamps come from {}",
+                dir.display(),
+                stamps.display()
+            );
+        }
+    };
     let first_existing = |names: &[&str]| names.iter().map(|n| dir.join(n)).find(|p| p.is_file());
     let ground_truth = first_existing(&["groundtruth.txt", "groundtruth_tum.txt"]);
     let mut sequence = if dir.join("rgb.txt").is_file() {
         let list = dir.join("rgb.txt");
+        ignored(&list);
         let frames = parse_list(&list, dir, |fields| {
             let t: f64 = fields.first()?.parse().ok()?;
             Some((t, fields.get(1)?.to_string()))
@@ -132,6 +147,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
         .find(|c| c.join("data.csv").is_file())
     {
         let list = cam.join("data.csv");
+        ignored(&list);
         let data = cam.join("data");
         let frames = parse_list(&list, &data, |fields| {
             let ns: f64 = fields.first()?.parse().ok()?;
@@ -155,6 +171,7 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
         let rows = numbers.iter().max().map_or(0, |&n| n + 1);
         let times_path = dir.join("times.txt");
         let row_times: Vec<f64> = if times_path.is_file() {
+            ignored(&times_path);
             let times = super::kitti::read_times(&times_path)?;
             if times.len() < rows {
                 let last = numbers
@@ -243,9 +260,11 @@ fn checked_fps(fps: f64) -> Result<f64> {
     // Below a frame a day or above a million a second, 1/fps and i/fps stop meaning frames
     // (1e-320 makes every step infinite): a typo, not a rate.
     if !(fps.is_finite() && (1e-5..=1e6).contains(&fps)) {
+        // In exponent form: a refused rate is tiny or huge, and `Display` would write out
+        // every digit of 1e-320.
         return Err(Error::config(
             "fps",
-            fps,
+            format!("{fps:e}"),
             "must be a rate in [1e-5, 1e6] frames per second",
         ));
     }
