@@ -1125,6 +1125,19 @@ fn batch_into_its_own_input_and_absurd_frame_rates_are_refused() {
         !out.status.success() && err.contains("fps = 1e-320: must be a rate"),
         "{err}"
     );
+    // A bag's frames carry their own stamps: a rate given for one is refused, not ignored.
+    let bag = dir.path().join("drive.mcap");
+    std::fs::write(&bag, b"").unwrap();
+    let out = steernav()
+        .args(["slam", "--backend", "cpu", "--fps", "5"])
+        .arg(&bag)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("does not apply to a ROS 2 bag"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -72,7 +72,8 @@ pub struct SlamCmd {
     #[arg(long, value_name = "FILE")]
     mcap: Option<PathBuf>,
     /// Frame rate giving timestamps to a plain folder of frames (default 30) or to a KITTI
-    /// folder without times.txt (default 10).
+    /// folder without times.txt (default 10). Unused, with a warning, where the sequence has
+    /// timestamps of its own (rgb.txt, data.csv, times.txt); refused for a ROS 2 bag.
     #[arg(long)]
     fps: Option<f64>,
     /// Process at most this many frames.
@@ -402,6 +403,13 @@ type FrameItem = (String, steernav::Result<(f64, Frame)>);
 impl Input {
     fn open(cmd: &SlamCmd) -> anyhow::Result<Self> {
         if steernav::bag::is_bag(&cmd.sequence) {
+            if let Some(fps) = cmd.fps {
+                bail!(
+                    "{}: --fps {fps} does not apply to a ROS 2 bag: its frames are stamped by \
+                     their headers",
+                    cmd.sequence.display()
+                );
+            }
             let bag = Bag::open(&cmd.sequence)?;
             let topic = bag_frames::image_topic(&bag, cmd.image_topic.as_deref())?;
             return Ok(Input::Bag(Box::new(bag), topic));
