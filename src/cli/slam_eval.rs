@@ -54,13 +54,8 @@ pub fn run(cmd: SlamEvalCmd) -> anyhow::Result<ExitCode> {
                 Ok(times)
             }
             None => {
-                if !(cmd.fps.is_finite() && (1e-5..=1e6).contains(&cmd.fps)) {
-                    bail!(
-                        "--fps {:e}: must be a rate in [1e-5, 1e6] frames per second",
-                        cmd.fps
-                    );
-                }
-                Ok((0..rows).map(|i| i as f64 / cmd.fps).collect())
+                let fps = sequence::checked_fps(cmd.fps)?;
+                Ok((0..rows).map(|i| i as f64 / fps).collect())
             }
         }
     };

@@ -256,7 +256,8 @@ pub fn open(dir: &Path, fps: Option<f64>) -> Result<Sequence> {
     Ok(sequence)
 }
 
-fn checked_fps(fps: f64) -> Result<f64> {
+/// `fps` if it is a frame rate in [1e-5, 1e6] per second, else a configuration error naming it.
+pub fn checked_fps(fps: f64) -> Result<f64> {
     // Below a frame a day or above a million a second, 1/fps and i/fps stop meaning frames
     // (1e-320 makes every step infinite): a typo, not a rate.
     if !(fps.is_finite() && (1e-5..=1e6).contains(&fps)) {
