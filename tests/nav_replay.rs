@@ -54,6 +54,66 @@ fn the_field_follows_the_corridor() {
     assert!(r.mean_abs_deviation_deg < 5.0, "{r:?}");
 }
 
+/// FLASER lines of a robot in open space (every beam 30 m), its scans 2.5 s apart as in the
+/// corrected CARMEN logs, facing +x and moving 1 m per scan in directions that swing within
+/// ±25° of it.
+fn sparse_swinging_log() -> String {
+    let n = 181;
+    let ranges = vec!["30.000"; n].join(" ");
+    let mut s = String::from("# generated\n");
+    let (mut x, mut y) = (0.0f64, 0.0f64);
+    for k in 0..80 {
+        let t = 2.5 * k as f64;
+        s.push_str(&format!(
+            "FLASER {n} {ranges} {x} {y} 0 {x} {y} 0 {t} test {t}\n"
+        ));
+        let swing = (25.0 * (0.9 * k as f64).sin() * (0.37 * k as f64).cos()).to_radians();
+        x += swing.cos();
+        y += swing.sin();
+    }
+    s
+}
+
+#[test]
+fn the_field_runs_for_the_time_between_scans_and_follows_a_swinging_motion() {
+    let scans = parse(Path::new("sparse.log"), sparse_swinging_log().as_bytes()).unwrap();
+    let defaults = replay(&scans, &ReplayConfig::default()).unwrap();
+    // The field of the controller, stepped 0.3 s per scan: the replay before issue 26.
+    let before = ReplayConfig {
+        field: steernav::low_level::dnf::FieldConfig::default(),
+        steps_per_scan: Some(30),
+        ..ReplayConfig::default()
+    };
+    let before = replay(&scans, &before).unwrap();
+    assert_eq!(defaults.forward.scans, 79, "{defaults:?}");
+    // Measured: 0.24° against 5.1°.
+    assert!(defaults.forward.mean_deg < 1.0, "{defaults:?}");
+    assert!(before.forward.mean_deg > 3.0, "{before:?}");
+    // A field time beyond 10 000 Euler steps is refused by name.
+    let long = ReplayConfig {
+        max_field_time: 1e3,
+        ..ReplayConfig::default()
+    };
+    let message = replay(&scans, &long).unwrap_err().to_string();
+    assert!(message.contains("max_field_time"), "{message}");
+    // So is a field time that is not a time, by a robot program calling the controller.
+    use steernav::nav::{Controller, ControllerConfig, LaserScan, Mode};
+    let mut robot =
+        Controller::new(ControllerConfig::default(), Mode::Laser, Default::default()).unwrap();
+    let scan = LaserScan::new(vec![3.0; 181], -1.5708, 0.01745, 4.0);
+    for bad in [f32::NAN, -1.0, 1e6] {
+        let message = robot
+            .step_towards_over(&scan, [0.0; 3], 0.0, 1.0, None, bad)
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("field time"), "{message}");
+    }
+    let command = robot
+        .step_towards_over(&scan, [0.0; 3], 0.3, 1.0, None, 2.0)
+        .unwrap();
+    assert!((command.heading - 0.3).abs() < 0.1, "{command:?}");
+}
+
 #[test]
 fn gzipped_logs_and_the_cli_json() {
     let dir = tempfile::tempdir().unwrap();

@@ -277,8 +277,47 @@ impl Controller {
         distance: f32,
         camera: Option<(&Frame, &Gist)>,
     ) -> Result<Command> {
+        self.advance(scan, pose, target, distance, camera, self.cfg.field_steps)
+    }
+
+    /// [`Controller::step_towards`] with the field integrated over `seconds` (whole Euler
+    /// steps of `field.dt`, at least one) instead of `field_steps` steps: for scans that arrive
+    /// at irregular intervals, each held until the next. At most 10 000 steps.
+    pub fn step_towards_over(
+        &mut self,
+        scan: &LaserScan,
+        pose: [f32; 3],
+        target: f32,
+        distance: f32,
+        camera: Option<(&Frame, &Gist)>,
+        seconds: f32,
+    ) -> Result<Command> {
+        let steps = seconds / self.cfg.field.dt;
+        if !(seconds.is_finite() && seconds >= 0.0 && steps <= 10_000.0) {
+            return Err(Error::input(
+                format!("field time {seconds} s"),
+                format!(
+                    "must be in [0, {}] (10000 Euler steps of {} s)",
+                    10_000.0 * self.cfg.field.dt,
+                    self.cfg.field.dt
+                ),
+            ));
+        }
+        let steps = (steps.round() as usize).max(1);
+        self.advance(scan, pose, target, distance, camera, steps)
+    }
+
+    fn advance(
+        &mut self,
+        scan: &LaserScan,
+        pose: [f32; 3],
+        target: f32,
+        distance: f32,
+        camera: Option<(&Frame, &Gist)>,
+        steps: usize,
+    ) -> Result<Command> {
         let s = self.stimulus(scan, pose, target, camera)?;
-        self.field.step(&s, self.cfg.field_steps)?;
+        self.field.step(&s, steps)?;
         Ok(self.command(self.field.field(0), scan, pose, distance))
     }
 

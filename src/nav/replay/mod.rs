@@ -28,12 +28,22 @@ use crate::error::{Error, Result};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ReplayConfig {
-    /// The field.
+    /// The field. Default eq 31's kernel on 1° neurons ([`FieldConfig::refined`]`(5)`, 360
+    /// neurons): on the controller's 5° lattice a formed peak stays pinned while the target
+    /// drifts by less than a few neurons between two scans, and the chosen heading trailed a
+    /// free real motion by 5–6° (docs/NAVIGATION.md).
     pub field: FieldConfig,
     /// The stimuli.
     pub stimulus: StimulusConfig,
-    /// Euler steps of the field per scan. Default 30.
-    pub steps_per_scan: usize,
+    /// Euler steps of the field per scan, whatever the time between scans. Default unset: each
+    /// scan drives the field for the time until the next scan of the log (up to
+    /// `max_field_time`), as a robot's field runs between two scans.
+    pub steps_per_scan: Option<usize>,
+    /// Longest time a scan drives the field (s), however long the log's gap. Default 5.
+    pub max_field_time: f64,
+    /// The time each scan drives the field (s) on a log whose timestamps do not resolve the
+    /// scans (see `fallback_distance`). Default 1.
+    pub untimed_field_time: f64,
     /// The target is where the robot is this many seconds later. Default 1.0.
     pub lookahead: f64,
     /// Scans after which the robot moves less than this (m) in the look-ahead are skipped.
@@ -60,8 +70,12 @@ impl ReplayConfig {
     pub fn validate(&self) -> Result<()> {
         self.field.validate()?;
         self.stimulus.validate()?;
-        let checks: [(&'static str, f64, f64, f64); 7] = [
+        // A scan's field time is at most 10 000 Euler steps.
+        let longest = 10_000.0 * self.field.dt as f64;
+        let checks: [(&'static str, f64, f64, f64); 9] = [
             ("lookahead", self.lookahead, 1e-3, 3600.0),
+            ("max_field_time", self.max_field_time, 0.0, longest),
+            ("untimed_field_time", self.untimed_field_time, 0.0, longest),
             ("min_motion", self.min_motion, 0.0, 1e3),
             ("safety", self.safety as f64, 0.0, 1e3),
             (
@@ -79,12 +93,14 @@ impl ReplayConfig {
                 return Err(Error::config(field, v, format!("must be in [{lo}, {hi}]")));
             }
         }
-        if !(1..=10_000).contains(&self.steps_per_scan) {
-            return Err(Error::config(
-                "steps_per_scan",
-                self.steps_per_scan,
-                "must be in 1..=10000",
-            ));
+        if let Some(steps) = self.steps_per_scan {
+            if !(1..=10_000).contains(&steps) {
+                return Err(Error::config(
+                    "steps_per_scan",
+                    steps,
+                    "must be in 1..=10000",
+                ));
+            }
         }
         Ok(())
     }
@@ -93,9 +109,11 @@ impl ReplayConfig {
 impl Default for ReplayConfig {
     fn default() -> Self {
         Self {
-            field: FieldConfig::default(),
+            field: FieldConfig::refined(5),
             stimulus: StimulusConfig::default(),
-            steps_per_scan: 30,
+            steps_per_scan: None,
+            max_field_time: 5.0,
+            untimed_field_time: 1.0,
             lookahead: 1.0,
             min_motion: 0.1,
             safety: 0.5,
@@ -216,7 +234,7 @@ pub fn replay_with(
         ControllerConfig {
             field: cfg.field.clone(),
             stimulus: cfg.stimulus.clone(),
-            field_steps: cfg.steps_per_scan,
+            field_steps: cfg.steps_per_scan.unwrap_or(1),
             rear_inhibition: cfg.rear_inhibition,
             ..ControllerConfig::default()
         },
@@ -258,7 +276,18 @@ pub fn replay_with(
             angle_increment: scan.angle_increment,
             range_max: f32::INFINITY,
         };
-        let command = controller.step_towards(&laser, [0.0; 3], target, 1.0, None)?;
+        let command = match cfg.steps_per_scan {
+            Some(_) => controller.step_towards(&laser, [0.0; 3], target, 1.0, None)?,
+            None => {
+                let held = match (by_time, scans.get(k + 1)) {
+                    // A log whose time steps back gives that scan one Euler step.
+                    (true, Some(next)) => (next.time - scan.time).clamp(0.0, cfg.max_field_time),
+                    (true, None) => 0.0,
+                    (false, _) => cfg.untimed_field_time,
+                };
+                controller.step_towards_over(&laser, [0.0; 3], target, 1.0, None, held as f32)?
+            }
+        };
         let heading = command.heading;
         let is = is_free(scan, heading, cfg.safety, halfwidth);
         each(&ReplayStep {
