@@ -100,7 +100,12 @@ fn the_field_runs_for_the_time_between_scans_and_follows_a_swinging_motion() {
     use steernav::nav::{Controller, ControllerConfig, LaserScan, Mode};
     let mut robot =
         Controller::new(ControllerConfig::default(), Mode::Laser, Default::default()).unwrap();
-    let scan = LaserScan::new(vec![3.0; 181], -1.5708, 0.01745, 4.0);
+    let scan = LaserScan::new(
+        vec![3.0; 181],
+        -std::f32::consts::FRAC_PI_2,
+        1f32.to_radians(),
+        4.0,
+    );
     for bad in [f32::NAN, -1.0, 1e6] {
         let message = robot
             .step_towards_over(&scan, [0.0; 3], 0.0, 1.0, None, bad)
