@@ -25,6 +25,9 @@ use crate::features::harris::{GpuHarris, GpuTimings};
 use crate::gpu::GpuContext;
 use crate::image::Frame;
 
+/// A frame and its detection, or why there is none.
+type FrameResult = Result<(Frame, Detection)>;
+
 /// Where the heavy image work runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -258,21 +261,36 @@ impl Detector {
     ) {
         let Some(g) = &self.gpu else {
             // On the CPU, as many frames at once as there are threads: each frame's own
-            // parallel passes leave cores idle in their serial parts (merge, sorting).
+            // parallel passes leave cores idle in their serial parts (merge, sorting). The
+            // next window is detected on another thread while `done` takes this one's
+            // results here (writing a frame's JSON took the cores' time before).
             let window = rayon::current_num_threads().max(1);
-            let mut items = items.into_iter().peekable();
-            while items.peek().is_some() {
+            let mut items = items.into_iter();
+            let mut finished: Option<(Vec<T>, Vec<FrameResult>)> = None;
+            loop {
                 let (tags, frames): (Vec<T>, Vec<Result<Frame>>) =
                     items.by_ref().take(window).unzip();
-                let results: Vec<Result<(Frame, Detection)>> = frames
-                    .into_par_iter()
-                    .map(|frame| frame.and_then(|f| self.detect(&f).map(|d| (f, d))))
-                    .collect();
-                for (tag, result) in tags.into_iter().zip(results) {
-                    done(tag, result);
+                let detected = std::thread::scope(|scope| {
+                    let worker = (!frames.is_empty()).then(|| {
+                        scope.spawn(|| {
+                            frames
+                                .into_par_iter()
+                                .map(|frame| frame.and_then(|f| self.detect(&f).map(|d| (f, d))))
+                                .collect::<Vec<FrameResult>>()
+                        })
+                    });
+                    if let Some((tags, results)) = finished.take() {
+                        for (tag, result) in tags.into_iter().zip(results) {
+                            done(tag, result);
+                        }
+                    }
+                    worker.map(|w| w.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+                });
+                match detected {
+                    Some(results) => finished = Some((tags, results)),
+                    None => return,
                 }
             }
-            return;
         };
         type Waiting<T> = (T, Frame, Instant, Result<PendingFrame>);
         let complete = |(tag, frame, t0, pending): Waiting<T>| {
