@@ -102,11 +102,11 @@ impl ControllerConfig {
                 "must be finite",
             ));
         }
-        if self.field_steps == 0 || self.field_steps > 10_000 {
+        if self.field_steps == 0 || self.field_steps > MAX_FIELD_STEPS {
             return Err(Error::config(
                 "nav.controller.field_steps",
                 self.field_steps,
-                "must be in 1..=10000",
+                format!("must be in 1..={MAX_FIELD_STEPS}"),
             ));
         }
         Ok(())
@@ -195,6 +195,10 @@ pub struct Command {
     /// The heading the field chose (φ_F, eq 29), relative to where the robot points.
     pub heading: f32,
 }
+
+/// Most Euler steps of the field in one control cycle: bounds the work of one call, whatever
+/// a setting or a log's gap between scans asks.
+pub const MAX_FIELD_STEPS: usize = 10_000;
 
 /// The field-based navigation controller of one robot.
 pub struct Controller {
@@ -293,12 +297,12 @@ impl Controller {
         seconds: f32,
     ) -> Result<Command> {
         let steps = seconds / self.cfg.field.dt;
-        if !(seconds.is_finite() && seconds >= 0.0 && steps <= 10_000.0) {
+        if !(seconds.is_finite() && seconds >= 0.0 && steps.round() <= MAX_FIELD_STEPS as f32) {
             return Err(Error::input(
                 format!("field time {seconds} s"),
                 format!(
-                    "must be in [0, {}] (10000 Euler steps of {} s)",
-                    10_000.0 * self.cfg.field.dt,
+                    "must be in [0, {}] ({MAX_FIELD_STEPS} Euler steps of {} s)",
+                    MAX_FIELD_STEPS as f32 * self.cfg.field.dt,
                     self.cfg.field.dt
                 ),
             ));

@@ -93,18 +93,7 @@ pub struct FieldConfig {
 
 impl Default for FieldConfig {
     fn default() -> Self {
-        Self {
-            neurons: 72,
-            tau: 0.1,
-            dt: 0.01,
-            h: -2.0,
-            interaction: Interaction::Amari {
-                excite: 1.0,
-                inhibit: -1.0,
-                width: 3,
-            },
-            activation: Activation::Heaviside,
-        }
+        Self::refined(1)
     }
 }
 
@@ -112,19 +101,22 @@ impl FieldConfig {
     /// The default field on a lattice `factor` times finer: 72·`factor` neurons of 5°/`factor`,
     /// eq 31's window the same ±15° (3·`factor` neighbours) and its weights divided by
     /// `factor`, so a peak of a given angular width excites and inhibits as much as on the
-    /// default lattice. On 5° neurons a formed peak moves only when the input difference
-    /// between two neighbours beats the kernel's step, so a slowly drifting input leaves it
-    /// pinned; a finer lattice lets it drift (docs/NAVIGATION.md, the replay).
+    /// default lattice (`factor` 1). On 5° neurons a formed peak moves only when the input
+    /// difference between two neighbours beats the kernel's step, so a slowly drifting input
+    /// leaves it pinned; a finer lattice lets it drift (docs/NAVIGATION.md, the replay).
     pub fn refined(factor: usize) -> Self {
         let f = factor.max(1);
         Self {
             neurons: 72 * f,
+            tau: 0.1,
+            dt: 0.01,
+            h: -2.0,
             interaction: Interaction::Amari {
                 excite: 1.0 / f as f32,
                 inhibit: -1.0 / f as f32,
                 width: 3 * f,
             },
-            ..Self::default()
+            activation: Activation::Heaviside,
         }
     }
 

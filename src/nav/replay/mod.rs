@@ -19,7 +19,7 @@ use metric::{Deviation, Motion, MotionCounts};
 
 use super::carmen::Scan;
 use super::controller::{Controller, LaserScan};
-use super::controller::{ControllerConfig, Mode};
+use super::controller::{ControllerConfig, Mode, MAX_FIELD_STEPS};
 use super::dnf::FieldConfig;
 use super::stimulus::{angle_diff, StimulusConfig};
 use crate::error::{Error, Result};
@@ -70,8 +70,7 @@ impl ReplayConfig {
     pub fn validate(&self) -> Result<()> {
         self.field.validate()?;
         self.stimulus.validate()?;
-        // A scan's field time is at most 10 000 Euler steps.
-        let longest = 10_000.0 * self.field.dt as f64;
+        let longest = MAX_FIELD_STEPS as f64 * self.field.dt as f64;
         let checks: [(&'static str, f64, f64, f64); 9] = [
             ("lookahead", self.lookahead, 1e-3, 3600.0),
             ("max_field_time", self.max_field_time, 0.0, longest),
@@ -94,11 +93,11 @@ impl ReplayConfig {
             }
         }
         if let Some(steps) = self.steps_per_scan {
-            if !(1..=10_000).contains(&steps) {
+            if !(1..=MAX_FIELD_STEPS).contains(&steps) {
                 return Err(Error::config(
                     "steps_per_scan",
                     steps,
-                    "must be in 1..=10000",
+                    format!("must be in 1..={MAX_FIELD_STEPS}"),
                 ));
             }
         }
@@ -234,7 +233,6 @@ pub fn replay_with(
         ControllerConfig {
             field: cfg.field.clone(),
             stimulus: cfg.stimulus.clone(),
-            field_steps: cfg.steps_per_scan.unwrap_or(1),
             rear_inhibition: cfg.rear_inhibition,
             ..ControllerConfig::default()
         },
@@ -276,18 +274,15 @@ pub fn replay_with(
             angle_increment: scan.angle_increment,
             range_max: f32::INFINITY,
         };
-        let command = match cfg.steps_per_scan {
-            Some(_) => controller.step_towards(&laser, [0.0; 3], target, 1.0, None)?,
-            None => {
-                let held = match (by_time, scans.get(k + 1)) {
-                    // A log whose time steps back gives that scan one Euler step.
-                    (true, Some(next)) => (next.time - scan.time).clamp(0.0, cfg.max_field_time),
-                    (true, None) => 0.0,
-                    (false, _) => cfg.untimed_field_time,
-                };
-                controller.step_towards_over(&laser, [0.0; 3], target, 1.0, None, held as f32)?
-            }
+        // The time this scan drives the field; a log whose time steps back gives it one step.
+        let held = match (cfg.steps_per_scan, by_time, scans.get(k + 1)) {
+            (Some(steps), _, _) => steps as f64 * cfg.field.dt as f64,
+            (None, true, Some(next)) => (next.time - scan.time).clamp(0.0, cfg.max_field_time),
+            (None, true, None) => 0.0,
+            (None, false, _) => cfg.untimed_field_time,
         };
+        let command =
+            controller.step_towards_over(&laser, [0.0; 3], target, 1.0, None, held as f32)?;
         let heading = command.heading;
         let is = is_free(scan, heading, cfg.safety, halfwidth);
         each(&ReplayStep {
