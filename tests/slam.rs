@@ -38,20 +38,25 @@ fn assert_covariance_is_consistent(p: &DMatrix<f64>) {
     );
 }
 
-#[test]
-fn constant_velocity_filter_converges_on_the_generated_sequence() {
-    let seq = SyntheticSequence::new(SyntheticConfig::default()).unwrap();
-    let detector = cpu_detector();
+/// Runs the filter from the defaults over every frame of `seq`: the session, its estimated
+/// poses and the frames on which tracking was lost.
+fn track(seq: &SyntheticSequence, detector: &Detector) -> (Slam, Vec<Pose>, usize) {
     let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
-    let mut estimate = Vec::new();
-    let mut lost = 0;
+    let (mut estimate, mut lost) = (Vec::new(), 0);
     for (k, truth) in seq.poses.iter().enumerate() {
         let report = slam
-            .process(&seq.render(k), truth.timestamp, None, &detector)
+            .process(&seq.render(k), truth.timestamp, None, detector)
             .unwrap();
         lost += usize::from(report.lost);
         estimate.push(pose_of(&report));
     }
+    (slam, estimate, lost)
+}
+
+#[test]
+fn constant_velocity_filter_converges_on_the_generated_sequence() {
+    let seq = SyntheticSequence::new(SyntheticConfig::default()).unwrap();
+    let (slam, estimate, lost) = track(&seq, &cpu_detector());
     let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
     let length = seq.path_length();
     eprintln!(
@@ -70,17 +75,7 @@ fn constant_velocity_filter_converges_on_the_generated_sequence() {
 /// Drives the generated car path and returns (frames lost, ATE as a share of the path).
 fn drive(config: SyntheticConfig) -> (usize, f64) {
     let seq = SyntheticSequence::new(config).unwrap();
-    let detector = common::cpu_detector(&DetectorConfig::tracking());
-    let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
-    let mut estimate = Vec::new();
-    let mut lost = 0;
-    for (k, truth) in seq.poses.iter().enumerate() {
-        let report = slam
-            .process(&seq.render(k), truth.timestamp, None, &detector)
-            .unwrap();
-        lost += usize::from(report.lost);
-        estimate.push(pose_of(&report));
-    }
+    let (slam, estimate, lost) = track(&seq, &common::cpu_detector(&DetectorConfig::tracking()));
     let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
     let length = seq.path_length();
     eprintln!(
@@ -123,16 +118,7 @@ fn forward_driving_at_5_hz_keeps_tracking() {
 #[test]
 fn a_walk_through_furnished_rooms_keeps_tracking() {
     let seq = SyntheticSequence::new(SyntheticConfig::for_motion(SyntheticMotion::Walk)).unwrap();
-    let detector = common::cpu_detector(&DetectorConfig::tracking());
-    let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default()).unwrap();
-    let (mut estimate, mut lost) = (Vec::new(), 0);
-    for (k, truth) in seq.poses.iter().enumerate() {
-        let report = slam
-            .process(&seq.render(k), truth.timestamp, None, &detector)
-            .unwrap();
-        lost += usize::from(report.lost);
-        estimate.push(pose_of(&report));
-    }
+    let (slam, estimate, lost) = track(&seq, &common::cpu_detector(&DetectorConfig::tracking()));
     let error = evaluate(&estimate, &seq.poses, 0.02).unwrap();
     let length = seq.path_length();
     eprintln!(
