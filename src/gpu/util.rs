@@ -104,6 +104,9 @@ pub fn read_staging(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) ->
     read_staging_after(device, buffer, bytes, None)
 }
 
+/// Longest wait for a readback's mapping callback once the device is idle.
+const MAP_CALLBACK_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(10);
+
 /// [`read_staging`] waiting only for `submission` (the latest when `None`): work submitted
 /// after it, such as the next frame, keeps running.
 pub fn read_staging_after(
@@ -131,14 +134,27 @@ pub fn read_staging_after(
     wait(submission)?;
     // The mapping completes once every submission that uses the buffer has run, which may be
     // a later one than `submission`; then wait for all of them. Blocking on the channel
-    // instead would hang whenever no other thread polls the device.
+    // alone would hang whenever no other thread polls the device; and with the device idle
+    // the callback may still be on its way from another thread's poll, which runs callbacks
+    // after it returns the device. So poll again between short waits, for a bounded time.
     let mapped = match rx.try_recv() {
         Ok(mapped) => mapped,
         Err(_) => {
-            wait(None)?;
-            rx.try_recv().map_err(|e| {
-                gpu_error("the readback was still not mapped with the device idle", e)
-            })?
+            let mut waited = std::time::Duration::ZERO;
+            let slice_of_wait = std::time::Duration::from_millis(5);
+            loop {
+                wait(None)?;
+                match rx.recv_timeout(slice_of_wait) {
+                    Ok(mapped) => break mapped,
+                    Err(e) if waited >= MAP_CALLBACK_TIMEOUT => {
+                        return Err(gpu_error(
+                            "the readback was still not mapped with the device idle",
+                            e,
+                        ))
+                    }
+                    Err(_) => waited += slice_of_wait,
+                }
+            }
         }
     };
     mapped.map_err(|e| gpu_error("mapping the readback buffer", e))?;
