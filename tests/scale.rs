@@ -3,34 +3,10 @@
 
 mod common;
 
-use steernav::features::{DetectorConfig, Keypoint};
-use steernav::image::Frame;
-use steernav::low_level::synth::textured_scene;
+use common::magnified;
 
-/// The frame magnified `z` times about its origin (bilinear): source pixel p lands at z·p.
-fn magnified(frame: &Frame, z: f64) -> Frame {
-    let (w, h) = (frame.width as usize, frame.height as usize);
-    let (ow, oh) = ((w as f64 * z) as usize, (h as f64 * z) as usize);
-    let mut rgb = vec![0u8; 3 * ow * oh];
-    for y in 0..oh {
-        for x in 0..ow {
-            let (sx, sy) = (x as f64 / z, y as f64 / z);
-            let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
-            let (fx, fy) = (sx - x0 as f64, sy - y0 as f64);
-            for k in 0..3 {
-                let p = |xx: usize, yy: usize| {
-                    frame.rgb[3 * (yy.min(h - 1) * w + xx.min(w - 1)) + k] as f64
-                };
-                let v = p(x0, y0) * (1.0 - fx) * (1.0 - fy)
-                    + p(x0 + 1, y0) * fx * (1.0 - fy)
-                    + p(x0, y0 + 1) * (1.0 - fx) * fy
-                    + p(x0 + 1, y0 + 1) * fx * fy;
-                rgb[3 * (y * ow + x) + k] = v.round() as u8;
-            }
-        }
-    }
-    Frame::from_rgb(ow as u32, oh as u32, rgb).unwrap()
-}
+use steernav::features::{DetectorConfig, Keypoint};
+use steernav::low_level::synth::textured_scene;
 
 /// |log2(scale ratio / z)| of every keypoint of `a` whose magnified position has a keypoint
 /// of `b` within 1.5 px, with each scale passed through `scale`.

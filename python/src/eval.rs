@@ -81,11 +81,13 @@ pub(crate) fn recall(
 
 /// Correspondences between two keypoint sets, as `steernav match` makes them: mutual nearest
 /// neighbours of the descriptors passing the ratio test both ways, verified by RANSAC
-/// (`verify` = "homography", "fundamental" or "none"; `threshold` in pixels). Returns a dict
+/// (`verify` = "homography", "fundamental" or "none"; `threshold` in pixels), then, with
+/// `guided`, matched again among the candidates the model maps within `threshold` of each
+/// other and verified again. Returns a dict
 /// with arrays `i`, `j` (indices into each set), `distance`, `inlier` (bool), and `model`, the
 /// fitted 3×3 H or F (None when none was found).
 #[pyfunction]
-#[pyo3(signature = (kp1, desc1, kp2, desc2, ratio = 0.8, verify = "homography", threshold = 3.0, iterations = 10_000, seed = 1))]
+#[pyo3(signature = (kp1, desc1, kp2, desc2, ratio = 0.8, verify = "homography", threshold = 3.0, iterations = 10_000, seed = 1, guided = true))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn match_keypoints(
     py: Python<'_>,
@@ -98,6 +100,7 @@ pub(crate) fn match_keypoints(
     threshold: f64,
     iterations: usize,
     seed: u64,
+    guided: bool,
 ) -> PyResult<Matches> {
     use steernav_core::features::matching::{MatchSettings, Matched, Verification};
     let verification: Verification = verify
@@ -109,6 +112,7 @@ pub(crate) fn match_keypoints(
         inlier_threshold: threshold,
         iterations,
         seed,
+        guided,
     };
     // The library names its field; Python calls the threshold `threshold`.
     settings.validate().map_err(|e| {

@@ -189,10 +189,12 @@ def match_keypoints(
     threshold: float = 3.0,
     iterations: int = 10000,
     seed: int = 1,
+    guided: bool = True,
 ) -> "Matches":
     """Correspondences as `steernav match` makes them: mutual nearest neighbours passing the
     ratio test both ways, verified by RANSAC ("homography", "fundamental" or "none",
-    `threshold` in pixels)."""
+    `threshold` in pixels), then, with `guided`, matched again among the candidates the model
+    maps within `threshold` of each other and verified again."""
 
 class Matches:
     """Correspondences between two keypoint sets, sorted by descriptor distance."""

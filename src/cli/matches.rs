@@ -39,6 +39,11 @@ pub struct MatchCmd {
     /// Most RANSAC iterations (fewer when the inlier share allows 99.9% confidence).
     #[arg(long, value_name = "N", default_value_t = 10_000)]
     iterations: usize,
+    /// Skip guided matching: by default, once RANSAC has a model (from at least 3 inliers per
+    /// point it needs), the keypoints are matched again among the candidates the model maps
+    /// within --inlier-threshold of each other, and verified again.
+    #[arg(long)]
+    no_guided: bool,
     /// Write the JSON record ({"image1", "image2", "descriptor", "matches", "inliers", …}) on
     /// stdout instead of a summary.
     #[arg(long)]
@@ -85,6 +90,7 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
         inlier_threshold: cmd.inlier_threshold,
         iterations: cmd.iterations,
         seed: 1,
+        guided: !cmd.no_guided,
     };
     // The library names the setting; the command line says it as the flag.
     settings.validate().map_err(|e| match e {

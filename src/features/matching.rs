@@ -1,7 +1,10 @@
 //! Correspondences between the keypoints of two images: mutual nearest neighbours of the
 //! descriptors with Lowe's ratio test (the matching behind recall, eq 12), verified by a
-//! RANSAC homography (planar scenes, pure rotations) or fundamental matrix (general motion).
-//! Beyond the paper, which evaluates descriptors but never matches two images.
+//! RANSAC homography (planar scenes, pure rotations) or fundamental matrix (general motion),
+//! then guided matching: the model found restricts each keypoint's candidates to those it
+//! maps within the inlier threshold, where the ratio test needs no global margin (Hartley and
+//! Zisserman, *Multiple View Geometry*, §4.8 and §11.9). Beyond the paper, which evaluates
+//! descriptors but never matches two images.
 
 use nalgebra::{Matrix3, SMatrix, Vector3};
 use rayon::prelude::*;
@@ -45,12 +48,7 @@ fn nearest(from: &[Keypoint], to: &[Keypoint], ratio: f32) -> Vec<Option<(usize,
         .map(|p| {
             let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
             for (j, q) in to.iter().enumerate() {
-                let d2: f32 = p
-                    .descriptor
-                    .iter()
-                    .zip(&q.descriptor)
-                    .map(|(x, y)| (x - y) * (x - y))
-                    .sum();
+                let d2 = squared_distance(&p.descriptor, &q.descriptor);
                 if d2 < best.1 {
                     second = best.1;
                     best = (j, d2);
@@ -125,7 +123,8 @@ pub struct Verified {
 }
 
 /// How two keypoint sets are matched and verified: mutual nearest neighbours passing Lowe's
-/// ratio test both ways, then RANSAC. The CLI's `match` and the Python `match` take these.
+/// ratio test both ways, then RANSAC, then guided matching. The CLI's `match` and the Python
+/// `match` take these.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MatchSettings {
@@ -139,7 +138,19 @@ pub struct MatchSettings {
     pub iterations: usize,
     /// Seed of RANSAC's draws.
     pub seed: u64,
+    /// Guided matching after verification: with the model RANSAC found (from at least
+    /// [`GUIDED_MIN_INLIERS`] inliers), match again among the keypoints the model maps within
+    /// `inlier_threshold` of each other (ratio test among those candidates, mutual), and
+    /// verify again, up to [`GUIDED_ROUNDS`] times while the inliers grow. Default true.
+    pub guided: bool,
 }
+
+/// Guided matching starts from a model with at least this many inliers per correspondence
+/// the model needs (4 for a homography, 8 for a fundamental matrix): fewer say little about
+/// whether the model is the scene's, and guiding by a wrong one would dress it in inliers.
+pub const GUIDED_MIN_INLIERS: usize = 3;
+/// Most rounds of guided matching and verification.
+pub const GUIDED_ROUNDS: usize = 3;
 
 impl Default for MatchSettings {
     fn default() -> Self {
@@ -149,6 +160,7 @@ impl Default for MatchSettings {
             inlier_threshold: 3.0,
             iterations: 10_000,
             seed: 1,
+            guided: true,
         }
     }
 }
@@ -222,8 +234,112 @@ impl MatchSettings {
             self.iterations,
             self.seed,
         );
-        Ok(Matched { matches, verified })
+        let mut best = Matched { matches, verified };
+        if !self.guided {
+            return Ok(best);
+        }
+        for _ in 0..GUIDED_ROUNDS {
+            let Some(model) = best.verified.model else {
+                break;
+            };
+            let inliers = best.verified.inliers.iter().filter(|&&f| f).count();
+            if inliers < GUIDED_MIN_INLIERS * self.verification.sample_size() {
+                break;
+            }
+            let matches = guided_matches(
+                a,
+                b,
+                self.verification,
+                &model,
+                self.inlier_threshold,
+                self.ratio,
+            );
+            let pairs: Vec<PointPair> = matches
+                .iter()
+                .map(|m| (point(&a[m.i]), point(&b[m.j])))
+                .collect();
+            let verified = verify(
+                &pairs,
+                self.verification,
+                self.inlier_threshold,
+                self.iterations,
+                self.seed,
+            );
+            if verified.inliers.iter().filter(|&&f| f).count() <= inliers {
+                break;
+            }
+            best = Matched { matches, verified };
+        }
+        Ok(best)
     }
+}
+
+/// Matches guided by `model`: each keypoint of `a` against the keypoints of `b` that the
+/// model puts within `threshold` pixels of it (transfer distance for a homography, Sampson
+/// distance for a fundamental matrix), the nearest descriptor passing the ratio test among
+/// those candidates when there are several; then only mutual pairs (each `b` keypoint keeps
+/// its nearest `a`). Sorted by distance, as [`mutual_matches`].
+pub fn guided_matches(
+    a: &[Keypoint],
+    b: &[Keypoint],
+    verification: Verification,
+    model: &[f64; 9],
+    threshold: f64,
+    ratio: f32,
+) -> Vec<Match> {
+    let error: ErrorFn = match verification {
+        Verification::Homography => homography_error,
+        Verification::Fundamental => sampson_error,
+        Verification::None => return Vec::new(),
+    };
+    let m = Matrix3::from_row_slice(model);
+    // The errors are squared, as RANSAC compares them.
+    let t2 = threshold * threshold;
+    let forward: Vec<Option<(usize, f32)>> = a
+        .par_iter()
+        .map(|p| {
+            let x = (p.x as f64, p.y as f64);
+            let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
+            for (j, q) in b.iter().enumerate() {
+                // A NaN error (a degenerate model) is no candidate either.
+                let near = error(&m, &(x, (q.x as f64, q.y as f64))) < t2;
+                if !near {
+                    continue;
+                }
+                let d2 = squared_distance(&p.descriptor, &q.descriptor);
+                if d2 < best.1 {
+                    second = best.1;
+                    best = (j, d2);
+                } else if d2 < second {
+                    second = d2;
+                }
+            }
+            (best.0 != usize::MAX && best.1 < ratio * ratio * second)
+                .then(|| (best.0, best.1.sqrt()))
+        })
+        .collect();
+    let mut nearest_a = vec![(usize::MAX, f32::INFINITY); b.len()];
+    for (i, f) in forward.iter().enumerate() {
+        if let Some((j, d)) = *f {
+            if d < nearest_a[j].1 {
+                nearest_a[j] = (i, d);
+            }
+        }
+    }
+    let mut out: Vec<Match> = forward
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| {
+            let (j, distance) = (*f)?;
+            (nearest_a[j].0 == i).then_some(Match { i, j, distance })
+        })
+        .collect();
+    out.sort_by(|x, y| x.distance.total_cmp(&y.distance).then(x.i.cmp(&y.i)));
+    out
+}
+
+fn squared_distance(x: &[f32], y: &[f32]) -> f32 {
+    x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum()
 }
 
 /// Pixel correspondences (x₁, y₁) → (x₂, y₂).

@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use steernav::low_level::gpu::gpu_required;
 use steernav::GpuContext;
-use steernav::{Backend, Detection, Detector, DetectorConfig};
+use steernav::{Backend, Detection, Detector, DetectorConfig, Frame};
 
 /// The CLI built for this test run.
 pub fn steernav() -> Command {
@@ -106,4 +106,29 @@ pub fn twin_fraction(a: &[(f32, f32)], b: &[(f32, f32)], radius: f32) -> f64 {
         })
         .count();
     hits as f64 / a.len() as f64
+}
+
+/// The frame magnified `z` times about its origin (bilinear): source pixel p lands at z·p.
+pub fn magnified(frame: &Frame, z: f64) -> Frame {
+    let (w, h) = (frame.width as usize, frame.height as usize);
+    let (ow, oh) = ((w as f64 * z) as usize, (h as f64 * z) as usize);
+    let mut rgb = vec![0u8; 3 * ow * oh];
+    for y in 0..oh {
+        for x in 0..ow {
+            let (sx, sy) = (x as f64 / z, y as f64 / z);
+            let (x0, y0) = (sx.floor() as usize, sy.floor() as usize);
+            let (fx, fy) = (sx - x0 as f64, sy - y0 as f64);
+            for k in 0..3 {
+                let p = |xx: usize, yy: usize| {
+                    frame.rgb[3 * (yy.min(h - 1) * w + xx.min(w - 1)) + k] as f64
+                };
+                let v = p(x0, y0) * (1.0 - fx) * (1.0 - fy)
+                    + p(x0 + 1, y0) * fx * (1.0 - fy)
+                    + p(x0, y0 + 1) * (1.0 - fx) * fy
+                    + p(x0 + 1, y0 + 1) * fx * fy;
+                rgb[3 * (y * ow + x) + k] = v.round() as u8;
+            }
+        }
+    }
+    Frame::from_rgb(ow as u32, oh as u32, rgb).unwrap()
 }
