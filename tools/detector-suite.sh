@@ -3,7 +3,8 @@
 # once (issue 20): correct matches at 3 px and homography accuracy at 3 px on each Oxford
 # sequence and over all four (1000 keypoints), and the rotation sweep's mean and minimum
 # repeatability and recall (15–75° every 15°, ε = 2 px, 500 keypoints, the sample and img1 of
-# each sequence). steernav only, CPU; about 11 s on two cores.
+# each sequence), and the inliers of `steernav match` on bark and graf img1 against img4 (the
+# defaults: 500 keypoints, guided). steernav only, CPU; about 13 s on two cores.
 #
 #   tools/detector-suite.sh [SETTINGS.toml] [detector flags...]
 #
@@ -33,3 +34,8 @@ for s in "${sequences[@]}"; do images+=("$oxford/$s/img1.ppm"); done
 paste -d' ' <(printf '%s\n' "${sequences[@]}" all) \
   <(grep '^| steernav' "$out/h.txt" | awk -F'|' '{print "correct", $3, "H acc @3", $9}')
 awk '/^steernav/ {print "rotation mean", $2, "min", $3, "recall", $5; exit}' "$out/r.txt"
+for s in bark graf; do
+  "$steernav" match "$oxford/$s/img1.ppm" "$oxford/$s/img4.ppm" --backend cpu "${config[@]}" "$@" \
+    2>"$out/m.err" | awk -v s="$s" '{for (i = 1; i < NF; i++) if ($(i + 1) ~ /^inliers/) print "match", s, "img1-img4 inliers", $i}' ||
+    { cat "$out/m.err" >&2; exit 1; }
+done
