@@ -221,7 +221,37 @@ impl MatchSettings {
                 ));
             }
         }
-        let matches = mutual_matches(a, b, self.ratio);
+        let mut best = self.verified(a, b, mutual_matches(a, b, self.ratio));
+        if !self.guided {
+            return Ok(best);
+        }
+        for _ in 0..GUIDED_ROUNDS {
+            let Some(model) = best.verified.model else {
+                break;
+            };
+            let inliers = best.verified.inliers.iter().filter(|&&f| f).count();
+            if inliers < GUIDED_MIN_INLIERS * self.verification.sample_size() {
+                break;
+            }
+            let guided = guided_matches(
+                a,
+                b,
+                self.verification,
+                &model,
+                self.inlier_threshold,
+                self.ratio,
+            );
+            let next = self.verified(a, b, guided);
+            if next.verified.inliers.iter().filter(|&&f| f).count() <= inliers {
+                break;
+            }
+            best = next;
+        }
+        Ok(best)
+    }
+
+    /// `matches` between `a` and `b` with their RANSAC verification.
+    fn verified(&self, a: &[Keypoint], b: &[Keypoint], matches: Vec<Match>) -> Matched {
         let point = |k: &Keypoint| (k.x as f64, k.y as f64);
         let pairs: Vec<PointPair> = matches
             .iter()
@@ -234,43 +264,7 @@ impl MatchSettings {
             self.iterations,
             self.seed,
         );
-        let mut best = Matched { matches, verified };
-        if !self.guided {
-            return Ok(best);
-        }
-        for _ in 0..GUIDED_ROUNDS {
-            let Some(model) = best.verified.model else {
-                break;
-            };
-            let inliers = best.verified.inliers.iter().filter(|&&f| f).count();
-            if inliers < GUIDED_MIN_INLIERS * self.verification.sample_size() {
-                break;
-            }
-            let matches = guided_matches(
-                a,
-                b,
-                self.verification,
-                &model,
-                self.inlier_threshold,
-                self.ratio,
-            );
-            let pairs: Vec<PointPair> = matches
-                .iter()
-                .map(|m| (point(&a[m.i]), point(&b[m.j])))
-                .collect();
-            let verified = verify(
-                &pairs,
-                self.verification,
-                self.inlier_threshold,
-                self.iterations,
-                self.seed,
-            );
-            if verified.inliers.iter().filter(|&&f| f).count() <= inliers {
-                break;
-            }
-            best = Matched { matches, verified };
-        }
-        Ok(best)
+        Matched { matches, verified }
     }
 }
 
