@@ -45,22 +45,29 @@ pub fn mutual_matches(a: &[Keypoint], b: &[Keypoint], ratio: f32) -> Vec<Match> 
 /// ratio test against the second nearest.
 fn nearest(from: &[Keypoint], to: &[Keypoint], ratio: f32) -> Vec<Option<(usize, f32)>> {
     from.par_iter()
-        .map(|p| {
-            let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
-            for (j, q) in to.iter().enumerate() {
-                let d2 = squared_distance(&p.descriptor, &q.descriptor);
-                if d2 < best.1 {
-                    second = best.1;
-                    best = (j, d2);
-                } else if d2 < second {
-                    second = d2;
-                }
-            }
-            // Squared distances: the ratio applies squared.
-            (best.0 != usize::MAX && best.1 < ratio * ratio * second)
-                .then(|| (best.0, best.1.sqrt()))
-        })
+        .map(|p| ratio_nearest(p, to.iter().enumerate(), ratio))
         .collect()
+}
+
+/// The nearest of `candidates` (index, keypoint) to `p` in descriptor space and the distance,
+/// when that passes the ratio test against the second nearest.
+fn ratio_nearest<'a>(
+    p: &Keypoint,
+    candidates: impl Iterator<Item = (usize, &'a Keypoint)>,
+    ratio: f32,
+) -> Option<(usize, f32)> {
+    let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
+    for (j, q) in candidates {
+        let d2 = squared_distance(&p.descriptor, &q.descriptor);
+        if d2 < best.1 {
+            second = best.1;
+            best = (j, d2);
+        } else if d2 < second {
+            second = d2;
+        }
+    }
+    // Squared distances: the ratio applies squared.
+    (best.0 != usize::MAX && best.1 < ratio * ratio * second).then(|| (best.0, best.1.sqrt()))
 }
 
 /// The geometric model that verifies matches.
@@ -293,23 +300,12 @@ pub fn guided_matches(
         .par_iter()
         .map(|p| {
             let x = (p.x as f64, p.y as f64);
-            let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
-            for (j, q) in b.iter().enumerate() {
-                // A NaN error (a degenerate model) is no candidate either.
-                let near = error(&m, &(x, (q.x as f64, q.y as f64))) < t2;
-                if !near {
-                    continue;
-                }
-                let d2 = squared_distance(&p.descriptor, &q.descriptor);
-                if d2 < best.1 {
-                    second = best.1;
-                    best = (j, d2);
-                } else if d2 < second {
-                    second = d2;
-                }
-            }
-            (best.0 != usize::MAX && best.1 < ratio * ratio * second)
-                .then(|| (best.0, best.1.sqrt()))
+            // A NaN error (a degenerate model) is no candidate either.
+            let near = b
+                .iter()
+                .enumerate()
+                .filter(|(_, q)| error(&m, &(x, (q.x as f64, q.y as f64))) < t2);
+            ratio_nearest(p, near, ratio)
         })
         .collect();
     let mut nearest_a = vec![(usize::MAX, f32::INFINITY); b.len()];
