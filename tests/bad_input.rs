@@ -329,6 +329,10 @@ fn settings_that_would_blow_up_work_or_memory_are_refused() {
         ),
         ("[slam.klt]\nlevels = 1000\n".to_string(), "slam.klt.levels"),
         (
+            "[slam.refine]\nkeyframes = 8\nfixed = 8\n".to_string(),
+            "slam.refine.fixed",
+        ),
+        (
             format!("[gist]\norientations_per_scale = {many}\n"),
             "orientations_per_scale",
         ),

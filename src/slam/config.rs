@@ -3,7 +3,8 @@
 //! noise model and the landmark parametrisation, eqs 13–24), `[slam.search]` (the active search,
 //! eqs 25–27), `[slam.ransac]` (1-point RANSAC and the rescue gate, eq 26), `[slam.map]`
 //! (creation and deletion of landmarks), `[slam.start]` (the two-view start and the start at
-//! rest), `[slam.klt]` (the frame-to-frame tracker) and `[slam.motion]` (eqs 15–16).
+//! rest), `[slam.klt]` (the frame-to-frame tracker), `[slam.motion]` (eqs 15–16) and
+//! `[slam.refine]` (the local bundle adjustment over the last keyframes).
 //!
 //! Keys that used to sit flat in `[slam]` are refused with the place they moved to.
 
@@ -11,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::klt::KltParams;
 use super::motion::MotionModel;
+use super::refine::RefineConfig;
 use crate::error::{Error, Result};
 use crate::moved::{Moved, MovedKeys};
 
@@ -32,6 +34,8 @@ pub struct SlamConfig {
     pub start: StartConfig,
     /// `[slam.klt]`: the pyramidal Lucas–Kanade tracker that follows points between frames.
     pub klt: KltParams,
+    /// `[slam.refine]`: the local bundle adjustment over the last keyframes.
+    pub refine: RefineConfig,
 }
 
 /// `[slam.filter]`: the EKF's noise model and the landmark parametrisation.
@@ -306,6 +310,7 @@ struct SlamTable {
     map: MapConfig,
     start: StartConfig,
     klt: KltParams,
+    refine: RefineConfig,
     #[serde(rename = "pixel_sigma")]
     _0: Moved<FlatSlam, 0>,
     #[serde(rename = "velocity_sigma")]
@@ -374,6 +379,7 @@ impl From<SlamTable> for SlamConfig {
             map: t.map,
             start: t.start,
             klt: t.klt,
+            refine: t.refine,
         }
     }
 }
@@ -525,6 +531,19 @@ impl SlamConfig {
             1..=1_000_000,
         )?;
         self.klt.validate()?;
+        let rf = &self.refine;
+        if rf.keyframes > 0 {
+            // 0 is off; a window needs a free keyframe beside the fixed ones.
+            within("slam.refine.keyframes", rf.keyframes, 3..=64)?;
+            within("slam.refine.fixed", rf.fixed, 2..=rf.keyframes - 1)?;
+        }
+        within("slam.refine.iterations", rf.iterations, 1..=100)?;
+        positive(&[
+            ("slam.refine.rotation", rf.rotation),
+            ("slam.refine.translation", rf.translation),
+            ("slam.refine.huber", rf.huber),
+        ])?;
+        within("slam.refine.min_parallax", rf.min_parallax, 0.0..=1.0)?;
         if let MotionModel::ConstantVelocity {
             linear_acceleration,
             angular_acceleration,

@@ -172,6 +172,42 @@ impl Filter {
         }
     }
 
+    /// Moves the camera's pose to (r, q), keeping the covariance: the local bundle adjustment
+    /// refined the mean.
+    pub(in crate::slam) fn set_pose(&mut self, position: &Vector3<f64>, orientation: &Quat) {
+        self.x.as_mut_slice()[0..3].copy_from_slice(position.as_slice());
+        self.x.as_mut_slice()[3..7].copy_from_slice(orientation.normalize().as_slice());
+    }
+
+    /// Moves landmark `slot` to the world point `point`, keeping the covariance: a Euclidean
+    /// landmark takes it as is, an inverse-depth one keeps its anchor and takes the ray and
+    /// inverse depth that reach it. False (nothing changed) when the point lies behind the
+    /// anchor's original ray.
+    pub(in crate::slam) fn set_landmark_point(
+        &mut self,
+        slot: usize,
+        point: &Vector3<f64>,
+    ) -> bool {
+        let s = self.slots[slot];
+        let y = &mut self.x.as_mut_slice()[s.offset..s.offset + s.kind.dim()];
+        match s.kind {
+            Parametrisation::Euclidean => y.copy_from_slice(point.as_slice()),
+            Parametrisation::InverseDepth => {
+                let d = point - Vector3::new(y[0], y[1], y[2]);
+                let (m, _, _) = inverse_depth::direction(y[3], y[4]);
+                let distance = d.norm();
+                if distance < 1e-9 || d.dot(&m) <= 0.0 {
+                    return false;
+                }
+                let (alpha, beta, _) = inverse_depth::angles(&d);
+                y[3] = alpha;
+                y[4] = beta;
+                y[5] = 1.0 / distance;
+            }
+        }
+        true
+    }
+
     /// Drops the correlations between the camera and the map, keeping both marginals: the
     /// pose is about to be measured afresh against the map (relocalisation).
     pub(in crate::slam) fn decorrelate_camera(&mut self) {

@@ -5,6 +5,7 @@
 //! - [`crate::low_level::motion`]: constant-velocity and odometry motion models (eqs 15–16).
 //! - [`crate::low_level::ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
 //! - [`Slam`]: the per-frame loop (eqs 25–27, map management), in rooms.
+//! - [`refine`]: the local bundle adjustment over the last keyframes.
 //! - [`config`]: every setting, in the `[slam.*]` sub-tables.
 //! - [`data`]: what is around the filter — sequences on disk (TUM, EuRoC, KITTI, plain
 //!   folders), trajectories and their evaluation, the generated sequences, the figure.
@@ -17,6 +18,7 @@ pub(crate) mod ekf;
 pub(crate) mod inverse_depth;
 pub(crate) mod klt;
 pub(crate) mod motion;
+pub mod refine;
 pub(crate) mod rotation;
 pub(crate) mod tracker;
 pub(crate) mod two_view;

@@ -9,6 +9,7 @@
 //! refresh), `map` (creation, conversion, deletion, the map output) and `report` (what each
 //! frame reports). This file is the per-frame orchestration.
 
+mod keyframes;
 mod map;
 mod report;
 mod search;
@@ -28,6 +29,7 @@ use super::config::SlamConfig;
 use super::ekf::{Filter, Observation};
 use super::klt::Pyramid;
 use super::motion::{MotionModel, OdometryStep};
+use super::refine::Window;
 use super::rotation::Quat;
 use crate::error::{Error, Result};
 use crate::features::Detector;
@@ -52,6 +54,8 @@ pub struct Slam {
     /// landmarks.
     previous_pose: Option<(Vector3<f64>, Quat)>,
     phase: Phase,
+    /// The keyframes of the local bundle adjustment.
+    window: Window,
 }
 
 impl Slam {
@@ -84,6 +88,7 @@ impl Slam {
             previous: None,
             previous_pose: None,
             phase,
+            window: Window::default(),
         })
     }
 
@@ -164,6 +169,12 @@ impl Slam {
         let t_filter = Instant::now();
         let outcome = self.update_with(frame, timestamp, &candidates, &inlier_flags);
         let (lost, relocalised) = self.judge_tracking(&searched, outcome.supported.len());
+        // By landmark id: deletion below moves the slots.
+        let measured: Vec<(u64, nalgebra::Vector2<f64>)> = candidates
+            .iter()
+            .filter(|c| outcome.supported.contains(&c.slot))
+            .map(|c| (self.filter.slots()[c.slot].id, c.pixel))
+            .collect();
         let converted = self.convert_linear_landmarks();
         let deleted = self.delete_bad_landmarks();
         timings.filter_ms += ms(t_filter);
@@ -173,6 +184,12 @@ impl Slam {
         let (created, detection_ms, creation_ms) = self.create_landmarks(frame, detector, views)?;
         timings.detection_ms = detection_ms;
         timings.filter_ms += creation_ms;
+        if !lost && matches!(self.phase, Phase::Tracking) {
+            let t_refine = Instant::now();
+            let first_new = self.filter.slots().len() - created;
+            self.refine_keyframes(&measured, first_new);
+            timings.filter_ms += ms(t_refine);
+        }
         self.end_frame(pyramid);
         timings.total_ms = ms(start);
         Ok(FrameReport {
