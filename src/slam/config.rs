@@ -542,6 +542,10 @@ impl SlamConfig {
             ("slam.refine.rotation", rf.rotation),
             ("slam.refine.translation", rf.translation),
             ("slam.refine.huber", rf.huber),
+            (
+                "slam.refine.measurement_inflation",
+                rf.measurement_inflation,
+            ),
         ])?;
         within("slam.refine.min_parallax", rf.min_parallax, 0.0..=1.0)?;
         if let MotionModel::ConstantVelocity {

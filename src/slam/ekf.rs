@@ -172,40 +172,51 @@ impl Filter {
         }
     }
 
-    /// Moves the camera's pose to (r, q), keeping the covariance: the local bundle adjustment
-    /// refined the mean.
-    pub(in crate::slam) fn set_pose(&mut self, position: &Vector3<f64>, orientation: &Quat) {
-        self.x.as_mut_slice()[0..3].copy_from_slice(position.as_slice());
-        self.x.as_mut_slice()[3..7].copy_from_slice(orientation.normalize().as_slice());
-    }
-
-    /// Moves landmark `slot` to the world point `point`, keeping the covariance: a Euclidean
-    /// landmark takes it as is, an inverse-depth one keeps its anchor and takes the ray and
-    /// inverse depth that reach it. False (nothing changed) when the point lies behind the
-    /// anchor's original ray.
-    pub(in crate::slam) fn set_landmark_point(
+    /// Updates the state with a measurement of the camera's pose: `position` and
+    /// `orientation` with the covariance `covariance` of (position, rotation vector δθ, where
+    /// q = q̂ ⊗ q(δθ)). The map follows the pose through its correlations with it.
+    pub(in crate::slam) fn update_pose(
         &mut self,
-        slot: usize,
-        point: &Vector3<f64>,
-    ) -> bool {
-        let s = self.slots[slot];
-        let y = &mut self.x.as_mut_slice()[s.offset..s.offset + s.kind.dim()];
-        match s.kind {
-            Parametrisation::Euclidean => y.copy_from_slice(point.as_slice()),
-            Parametrisation::InverseDepth => {
-                let d = point - Vector3::new(y[0], y[1], y[2]);
-                let (m, _, _) = inverse_depth::direction(y[3], y[4]);
-                let distance = d.norm();
-                if distance < 1e-9 || d.dot(&m) <= 0.0 {
-                    return false;
-                }
-                let (alpha, beta, _) = inverse_depth::angles(&d);
-                y[3] = alpha;
-                y[4] = beta;
-                y[5] = 1.0 / distance;
-            }
+        position: &Vector3<f64>,
+        orientation: &Quat,
+        covariance: &Matrix6<f64>,
+    ) -> Result<(), UpdateError> {
+        let q = self.orientation();
+        let measured = if orientation.dot(&q) < 0.0 {
+            -orientation
+        } else {
+            *orientation
+        };
+        // ∂q/∂δθ at δθ = 0: half the vector columns of q ⊗ (1, δθ/2).
+        let mut j = SMatrix::<f64, POSE, 6>::zeros();
+        for i in 0..3 {
+            j[(i, i)] = 1.0;
         }
-        true
+        let right = rotation::d_multiply_d_right(&measured);
+        j.fixed_view_mut::<4, 3>(3, 3)
+            .copy_from(&(right.fixed_view::<4, 3>(0, 1) * 0.5));
+        // The norm direction of q is not measured: a small variance keeps S definite.
+        let r = j * covariance * j.transpose() + SMatrix::<f64, POSE, POSE>::identity() * 1e-10;
+        let s = self.p.fixed_view::<POSE, POSE>(0, 0) + r;
+        let chol =
+            nalgebra::Cholesky::new(symmetric(&s)).ok_or(UpdateError::NotPositiveDefinite)?;
+        let mut nu = DVector::<f64>::zeros(POSE);
+        nu.fixed_rows_mut::<3>(0)
+            .copy_from(&(position - self.position()));
+        nu.fixed_rows_mut::<4>(3).copy_from(&(measured - q));
+        let n = self.dim();
+        let pht = self.p.view((0, 0), (n, POSE)).into_owned();
+        let l_inv = chol
+            .l()
+            .solve_lower_triangular(&DMatrix::identity(POSE, POSE))
+            .ok_or(UpdateError::NotPositiveDefinite)?;
+        let w = &pht * l_inv.transpose();
+        let white = &l_inv * nu;
+        self.x.gemv(1.0, &w, &white, 1.0);
+        let wt = w.transpose();
+        subtract_symmetric_product(&mut self.p, &w, &wt);
+        self.normalize_quaternion();
+        Ok(())
     }
 
     /// Drops the correlations between the camera and the map, keeping both marginals: the
@@ -712,5 +723,27 @@ mod tests {
         assert!((pred.pixel - Vector2::new(200.0, 100.0)).amax() < 1e-6);
         let s = f.innovation_covariance(1, &pred);
         assert!(s[(0, 0)] > 1.0 && s[(1, 1)] > 1.0);
+    }
+
+    #[test]
+    fn a_pose_measurement_moves_the_camera_and_keeps_the_covariance_symmetric() {
+        let mut f = filter_with_landmarks();
+        let before = f.position();
+        let target = before + Vector3::new(0.02, -0.01, 0.03);
+        let turned = rotation::multiply(
+            &f.orientation(),
+            &rotation::from_rotation_vector(&Vector3::new(0.0, 0.01, 0.0)),
+        );
+        let covariance = Matrix6::identity() * 1e-8;
+        f.update_pose(&target, &turned, &covariance).unwrap();
+        // The measurement is far more certain than the prediction: the pose takes it.
+        assert!((f.position() - target).norm() < 1e-3, "{:?}", f.position());
+        let relative = rotation::multiply(&rotation::conjugate(&turned), &f.orientation());
+        assert!(rotation::to_rotation_vector(&relative).norm() < 1e-3);
+        assert!((f.orientation().norm() - 1.0).abs() < 1e-12);
+        let p = f.covariance();
+        assert!((p - p.transpose()).amax() < 1e-12);
+        assert!((0..p.nrows()).all(|i| p[(i, i)] >= 0.0));
+        assert!(p[(0, 0)] < 1e-6);
     }
 }

@@ -10,11 +10,14 @@
 //! Levenberg–Marquardt on the reprojection error (eq 20 with the camera's distortion, Huber
 //! weights), solved through the Schur complement of the points (Triggs et al., "Bundle
 //! adjustment — a modern synthesis", 2000, §6.1). The filter then takes the refined current
-//! pose and points as its means; its covariance is kept.
+//! pose as a measurement (eqs 22–24 with H the pose's rows), its covariance the window's,
+//! inflated: the map follows through its correlations with the pose, and the filter's
+//! covariance stays its own. Writing the refined means over the filter's, the first form,
+//! made the suite worse (docs/SLAM.md).
 
 use std::collections::{HashMap, VecDeque};
 
-use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, SMatrix, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::camera::PinholeCamera;
@@ -24,9 +27,7 @@ use super::rotation::{self, Quat};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RefineConfig {
-    /// Keyframes in the window; 0 (the default) turns the refinement off. It is not on by
-    /// default: writing the refined means into the filter without its covariance helps the
-    /// generated drives and hurts the indoor sequences (docs/SLAM.md).
+    /// Keyframes in the window; 0 turns the refinement off. Default 8.
     pub keyframes: usize,
     /// Oldest keyframes of the window held fixed (at least 2: they fix the gauge and the scale).
     pub fixed: usize,
@@ -42,18 +43,24 @@ pub struct RefineConfig {
     pub min_parallax: f64,
     /// Residual, pixels, beyond which an observation's weight falls as 1/residual (Huber).
     pub huber: f64,
+    /// The window's covariance of the refined current pose is multiplied by this before the
+    /// filter takes the pose as a measurement: the window re-uses pixels the filter has already
+    /// taken, so its own covariance would count them twice, and more. Default 16 (4 to 256
+    /// measured, docs/SLAM.md).
+    pub measurement_inflation: f64,
 }
 
 impl Default for RefineConfig {
     fn default() -> Self {
         Self {
-            keyframes: 0,
+            keyframes: 8,
             fixed: 2,
             rotation: 0.05,
             translation: 0.05,
             iterations: 5,
             min_parallax: 0.017,
             huber: 2.0,
+            measurement_inflation: 16.0,
         }
     }
 }
@@ -68,10 +75,13 @@ pub(in crate::slam) struct Keyframe {
 }
 
 /// What one refinement did, for the log.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub(in crate::slam) struct Refined {
     /// Points refined (the others keep the filter's estimate).
     pub points: usize,
+    /// Covariance of the newest keyframe's refined (position, rotation vector), from the
+    /// window's measurements alone.
+    pub newest_covariance: Option<Matrix6<f64>>,
     /// RMS reprojection error before and after, pixels.
     pub rms_before: f64,
     pub rms_after: f64,
@@ -138,7 +148,11 @@ impl Window {
         let mut cost = before;
         let mut lambda = 1e-3;
         for _ in 0..config.iterations {
-            let Some((dp, dl)) = problem.step(camera, &poses, &xyz, fixed, config.huber, lambda)
+            let Some(Step {
+                poses: dp,
+                points: dl,
+                ..
+            }) = problem.step(camera, &poses, &xyz, fixed, config.huber, lambda)
             else {
                 break;
             };
@@ -170,6 +184,9 @@ impl Window {
                 lambda *= 10.0;
             }
         }
+        let newest_covariance = problem
+            .step(camera, &poses, &xyz, fixed, config.huber, 0.0)
+            .map(|step| step.newest);
         for (frame, (r, q)) in self.frames.iter_mut().zip(&poses) {
             frame.position = *r;
             frame.orientation = *q;
@@ -181,6 +198,7 @@ impl Window {
             }
         }
         Some(Refined {
+            newest_covariance,
             points: problem.free.iter().filter(|&&f| f).count(),
             rms_before: before.rms(),
             rms_after: cost.rms(),
@@ -292,7 +310,7 @@ impl Problem {
         fixed: usize,
         huber: f64,
         lambda: f64,
-    ) -> Option<(DVector<f64>, Vec<Vector3<f64>>)> {
+    ) -> Option<Step> {
         let free = poses.len() - fixed;
         let np = 6 * free;
         let rotations: Vec<Matrix3<f64>> = poses.iter().map(|(_, q)| rotation::matrix(q)).collect();
@@ -370,7 +388,12 @@ impl Problem {
                 }
             }
         }
-        let dp = s.cholesky()?.solve(&rhs);
+        let chol = s.cholesky()?;
+        let dp = chol.solve(&rhs);
+        let newest = chol
+            .inverse()
+            .fixed_view::<6, 6>(np - 6, np - 6)
+            .into_owned();
         let dl = (0..xyz.len())
             .map(|j| {
                 let Some(inv) = hll_inv[j] else {
@@ -383,8 +406,21 @@ impl Problem {
                 inv * b
             })
             .collect();
-        Some((dp, dl))
+        Some(Step {
+            poses: dp,
+            points: dl,
+            newest,
+        })
     }
+}
+
+/// One damped Gauss–Newton step and the covariance it gives the newest keyframe's pose.
+struct Step {
+    /// (δr, δθ) of each free keyframe.
+    poses: DVector<f64>,
+    points: Vec<Vector3<f64>>,
+    /// Covariance of the newest keyframe's (δr, δθ), from the reduced camera system.
+    newest: Matrix6<f64>,
 }
 
 fn huber_weight(e: f64, delta: f64) -> f64 {

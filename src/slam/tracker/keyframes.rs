@@ -1,5 +1,6 @@
 //! The keyframes of the local bundle adjustment (`slam::refine`): which frames become one,
-//! what each keeps, and how the refined poses and points go back into the filter.
+//! what each keeps, and how the refined pose goes back into the filter — as a measurement of
+//! the camera's pose, so that the map follows it through its correlations.
 
 use std::collections::HashMap;
 
@@ -10,7 +11,7 @@ use crate::slam::refine::Keyframe;
 
 impl Slam {
     /// Records this frame as a keyframe when it has turned or moved enough since the last
-    /// one, then refines the window and gives the filter the refined current pose and points.
+    /// one, then refines the window and updates the filter with the refined current pose.
     /// `measured` holds the landmarks (by id) the update took, with their pixels; the
     /// landmarks created in this frame, from slot `first_new` on, are seen where they were
     /// created.
@@ -68,11 +69,16 @@ impl Slam {
             refined.rms_before,
             refined.rms_after
         );
-        if let Some((r, q)) = self.window.newest() {
-            self.filter.set_pose(&r, &q);
-        }
-        for (id, p) in &points {
-            self.filter.set_landmark_point(slot_of[id], p);
+        let (Some((r, q)), Some(covariance)) = (self.window.newest(), refined.newest_covariance)
+        else {
+            return;
+        };
+        let inflation = self.config.refine.measurement_inflation;
+        if let Err(e) = self.filter.update_pose(&r, &q, &(covariance * inflation)) {
+            log::debug!(
+                "frame {}: the filter refused the refined pose ({e})",
+                self.frame_index
+            );
         }
     }
 }
