@@ -15,7 +15,7 @@
 //! covariance stays its own. Writing the refined means over the filter's, the first form,
 //! made the suite worse (docs/SLAM.md).
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, SMatrix, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -318,8 +318,9 @@ impl Problem {
         let mut bp = DVector::<f64>::zeros(np);
         let mut hll = vec![Matrix3::<f64>::zeros(); xyz.len()];
         let mut bl = vec![Vector3::<f64>::zeros(); xyz.len()];
-        // Pose–point blocks, keyed by (free keyframe, point).
-        let mut hpl: HashMap<(usize, usize), SMatrix<f64, 6, 3>> = HashMap::new();
+        // Pose–point blocks, keyed by (free keyframe, point); ordered, so that the sums of the
+        // Schur complement, and so the trajectory, are the same on every run.
+        let mut hpl: BTreeMap<(usize, usize), SMatrix<f64, 6, 3>> = BTreeMap::new();
         for &(k, j, z) in &self.observations {
             let rt = rotations[k].transpose();
             let h = rt * (xyz[j] - poses[k].0);
