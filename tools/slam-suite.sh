@@ -13,6 +13,8 @@
 #   from its 16th frame, at 5 Hz (even and odd frames), played backwards, and standing still
 #   on its first frame for 1.5 s before it drives off.
 # Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
+# STEERNAV names the binary (default: target/release/steernav, built first), so that a saved
+# build can be judged beside the tree's in one session.
 # With BASELINE=1, a last column gives the ATE of the 40-line OpenCV visual odometry
 # (tools/vo_baseline.py, in the peers' venv that tools/setup-peers.sh installs).
 set -euo pipefail
@@ -22,8 +24,12 @@ if [ $# -gt 0 ] && [ "$1" != "--" ]; then clips=$(realpath "$1"); shift; fi
 [ "${1:-}" = "--" ] && shift
 SUITE_DIR=${SUITE_DIR:-/tmp/steernav-suite}
 mkdir -p "$SUITE_DIR"
-cargo build --release --quiet
-bin=./target/release/steernav
+if [ -n "${STEERNAV:-}" ]; then
+  bin=$STEERNAV
+else
+  cargo build --release --quiet
+  bin=./target/release/steernav
+fi
 
 synth() { # name motion seed fps
   local dir="$SUITE_DIR/$1"

@@ -564,6 +564,22 @@ impl SlamConfig {
                 ),
             ])?;
         }
+        if let MotionModel::Wheeled(w) = &self.motion {
+            positive(&[
+                (
+                    "slam.motion.wheeled.linear_acceleration",
+                    w.linear_acceleration,
+                ),
+                (
+                    "slam.motion.wheeled.angular_acceleration",
+                    w.angular_acceleration,
+                ),
+                ("slam.motion.wheeled.slip", w.slip),
+                ("slam.motion.wheeled.vertical", w.vertical),
+                ("slam.motion.wheeled.tilt_rate", w.tilt_rate),
+                ("slam.motion.wheeled.arm_sigma", w.arm_sigma),
+            ])?;
+        }
         Ok(())
     }
 }
@@ -605,6 +621,20 @@ mod tests {
         c.klt.levels = 0;
         let e = c.validate().unwrap_err().to_string();
         assert!(e.contains("slam.klt.levels"), "{e}");
+    }
+
+    #[test]
+    fn the_wheeled_model_takes_its_defaults_and_names_a_bad_key() {
+        let c: SlamConfig = toml::from_str("[motion.wheeled]\n").unwrap();
+        assert_eq!(c.motion, MotionModel::wheeled());
+        c.validate().unwrap();
+        let c: SlamConfig = toml::from_str("[motion.wheeled]\nslip = -1\n").unwrap();
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("slam.motion.wheeled.slip"), "{e}");
+        let e = toml::from_str::<SlamConfig>("[motion.wheeled]\narm = 0.1\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown field `arm`"), "{e}");
     }
 
     #[test]

@@ -59,6 +59,9 @@ pub struct Filter {
     /// Pixel noise standard deviation (R = σ² I per observation).
     pixel_sigma: f64,
     next_id: u64,
+    /// The wheeled model's open step: where the copy of the previous frame's position sits
+    /// (the last 3 entries of x) and the step's duration, until [`Filter::close_step`].
+    step: Option<(usize, f64)>,
 }
 
 /// Where the two-view start puts the camera, with the variances it gives each part: the
@@ -82,6 +85,18 @@ pub(in crate::slam) struct Seat {
 /// The pose entries (r, q) are the first 7 of the camera state in every motion model.
 pub const POSE: usize = 7;
 
+/// How many standard deviations from zero the yaw rate must be for a step to teach the
+/// wheeled model its arm.
+const ARM_EVIDENCE: f64 = 3.0;
+
+/// The prior variance of the wheeled model's arm; `None` for the other models.
+fn arm_variance(motion: &MotionModel) -> Option<f64> {
+    match motion {
+        MotionModel::Wheeled(w) => Some(w.arm_sigma * w.arm_sigma),
+        _ => None,
+    }
+}
+
 impl Filter {
     /// A filter at the origin, looking along +z, with a small velocity prior.
     pub fn new(
@@ -99,11 +114,14 @@ impl Filter {
         for i in 0..POSE {
             p[(i, i)] = 1e-12;
         }
-        if n == 13 {
+        if motion.has_velocity() {
             for i in 7..10 {
                 p[(i, i)] = velocity_sigma * velocity_sigma;
                 p[(i + 3, i + 3)] = angular_velocity_sigma * angular_velocity_sigma;
             }
+        }
+        if let Some(variance) = arm_variance(&motion) {
+            p[(motion::ARM, motion::ARM)] = variance;
         }
         Self {
             camera,
@@ -113,6 +131,7 @@ impl Filter {
             slots: Vec::new(),
             pixel_sigma,
             next_id: 0,
+            step: None,
         }
     }
 
@@ -150,6 +169,7 @@ impl Filter {
     /// are cleared (the old map's correlations with the camera no longer hold) and given the
     /// seat's variances.
     pub(in crate::slam) fn seat(&mut self, seat: &Seat) {
+        self.close_step();
         let c = self.motion.camera_dim();
         let n = self.dim();
         self.x.as_mut_slice()[0..3].copy_from_slice(seat.position.as_slice());
@@ -162,7 +182,12 @@ impl Filter {
         for i in 3..POSE {
             self.p[(i, i)] = seat.orientation_variance;
         }
-        if c == 13 {
+        if let Some(variance) = arm_variance(&self.motion) {
+            // The arm keeps its estimate; the start fixes the map's unit, so its prior
+            // (in map units) starts afresh.
+            self.p[(motion::ARM, motion::ARM)] = variance;
+        }
+        if self.motion.has_velocity() {
             self.x.as_mut_slice()[7..10].copy_from_slice(seat.velocity.as_slice());
             self.x.as_mut_slice()[10..13].copy_from_slice(seat.angular_velocity.as_slice());
             for i in 7..10 {
@@ -197,18 +222,44 @@ impl Filter {
             .copy_from(&(right.fixed_view::<4, 3>(0, 1) * 0.5));
         // The norm direction of q is not measured: a small variance keeps S definite.
         let r = j * covariance * j.transpose() + SMatrix::<f64, POSE, POSE>::identity() * 1e-10;
-        let s = self.p.fixed_view::<POSE, POSE>(0, 0) + r;
-        let chol =
-            nalgebra::Cholesky::new(symmetric(&s)).ok_or(UpdateError::NotPositiveDefinite)?;
         let mut nu = DVector::<f64>::zeros(POSE);
         nu.fixed_rows_mut::<3>(0)
             .copy_from(&(position - self.position()));
         nu.fixed_rows_mut::<4>(3).copy_from(&(measured - q));
+        let pose: Vec<usize> = (0..POSE).collect();
+        self.update_columns(
+            &nu,
+            &pose,
+            &DMatrix::identity(POSE, POSE),
+            &DMatrix::from_iterator(POSE, POSE, r.iter().copied()),
+        )
+    }
+
+    /// Eqs 22–24 for a measurement that touches the entries `columns` of x alone: innovation
+    /// `nu`, Jacobian `h` over those entries, noise covariance `r`. The rest of the state
+    /// follows through its correlations with them.
+    fn update_columns(
+        &mut self,
+        nu: &DVector<f64>,
+        columns: &[usize],
+        h: &DMatrix<f64>,
+        r: &DMatrix<f64>,
+    ) -> Result<(), UpdateError> {
+        let m = h.nrows();
         let n = self.dim();
-        let pht = self.p.view((0, 0), (n, POSE)).into_owned();
+        let mut pht = DMatrix::<f64>::zeros(n, m);
+        for (k, &col) in columns.iter().enumerate() {
+            pht.ger(1.0, &self.p.column(col), &h.column(k), 1.0);
+        }
+        let mut s = r.clone();
+        for (k, &col) in columns.iter().enumerate() {
+            s.ger(1.0, &h.column(k), &pht.row(col).transpose(), 1.0);
+        }
+        let chol =
+            nalgebra::Cholesky::new(symmetric(&s)).ok_or(UpdateError::NotPositiveDefinite)?;
         let l_inv = chol
             .l()
-            .solve_lower_triangular(&DMatrix::identity(POSE, POSE))
+            .solve_lower_triangular(&DMatrix::identity(m, m))
             .ok_or(UpdateError::NotPositiveDefinite)?;
         let w = &pht * l_inv.transpose();
         let white = &l_inv * nu;
@@ -219,9 +270,90 @@ impl Filter {
         Ok(())
     }
 
+    /// The motion model's pseudo-measurements (the wheeled model's constraints), taken as an
+    /// update of the camera block. A refused update leaves the state as predicted.
+    fn constrain_motion(&mut self) {
+        let c = self.motion.camera_dim();
+        let camera = self.x.rows(0, c).into_owned();
+        let Some((value, h, sigma)) = motion::constraint(&self.motion, &camera) else {
+            return;
+        };
+        self.take_constraint(&value, &(0..c).collect::<Vec<_>>(), &h, &sigma);
+    }
+
+    /// Takes pseudo-measurements c(x) = 0 ± `sigma` with Jacobian `h` over `columns`.
+    fn take_constraint(
+        &mut self,
+        value: &DVector<f64>,
+        columns: &[usize],
+        h: &DMatrix<f64>,
+        sigma: &DVector<f64>,
+    ) {
+        let nu = DVector::from_iterator(value.len(), value.iter().map(|v| -v));
+        let r = DMatrix::from_diagonal(&DVector::from_iterator(
+            sigma.len(),
+            sigma.iter().map(|s| s * s),
+        ));
+        if self.update_columns(&nu, columns, h, &r).is_err() {
+            log::debug!("wheeled motion constraint refused: innovation covariance not definite");
+        }
+    }
+
+    /// Opens a step of the wheeled model before a prediction: the current position is copied
+    /// to the end of the state (x and P), so that the step's displacement can be constrained
+    /// once the frame's measurements have moved the pose (stochastic cloning).
+    fn open_step(&mut self, dt: f64) {
+        self.close_step();
+        if !matches!(self.motion, MotionModel::Wheeled(_)) {
+            return;
+        }
+        let n = self.dim();
+        let mut x = DVector::zeros(n + 3);
+        x.rows_mut(0, n).copy_from(&self.x);
+        x.rows_mut(n, 3).copy_from(&self.x.rows(0, 3));
+        let mut p = DMatrix::zeros(n + 3, n + 3);
+        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
+        p.view_mut((n, 0), (3, n)).copy_from(&self.p.rows(0, 3));
+        p.view_mut((0, n), (n, 3)).copy_from(&self.p.columns(0, 3));
+        p.view_mut((n, n), (3, 3))
+            .copy_from(&self.p.view((0, 0), (3, 3)));
+        self.x = x;
+        self.p = p;
+        self.step = Some((n, dt));
+    }
+
+    /// Closes the wheeled model's open step: its displacement, in the camera's frame, obeys
+    /// the vehicle's constraints (sideways only by the arm's swing d·ω_y·dt, nothing
+    /// vertically), then the copy of the previous position leaves the state. The velocity
+    /// constraints tie the prediction; this ties what the measurements did to the pose.
+    /// Called once the frame's updates are in; a no-op when no step is open.
+    pub(in crate::slam) fn close_step(&mut self) {
+        let Some((origin, dt)) = self.step.take() else {
+            return;
+        };
+        if let MotionModel::Wheeled(w) = &self.motion {
+            // The arm is learnt only in a clear turn (see `motion::step_constraint`).
+            let learn_arm = self.x[11].abs() > ARM_EVIDENCE * self.p[(11, 11)].sqrt();
+            let (value, columns, h) = motion::step_constraint(&self.x, origin, dt, learn_arm);
+            let sigma = DVector::from_vec(vec![w.slip * dt, w.vertical * dt]);
+            self.take_constraint(&value, &columns, &h, &sigma);
+        }
+        self.drop_step_copy(origin);
+    }
+
+    /// Removes the copy of the previous position (the last 3 entries) from x and P.
+    fn drop_step_copy(&mut self, origin: usize) {
+        self.x = self.x.rows(0, origin).into_owned();
+        self.p = self.p.view((0, 0), (origin, origin)).into_owned();
+    }
+
     /// Drops the correlations between the camera and the map, keeping both marginals: the
     /// pose is about to be measured afresh against the map (relocalisation).
     pub(in crate::slam) fn decorrelate_camera(&mut self) {
+        // The step's copy of the previous position is as unrelated to the re-measured pose.
+        if let Some((origin, _)) = self.step.take() {
+            self.drop_step_copy(origin);
+        }
         let c = self.motion.camera_dim();
         let n = self.dim();
         if n > c {
@@ -298,6 +430,7 @@ impl Filter {
 
     /// Eqs 15–16: propagates the camera block through the motion model.
     pub fn predict(&mut self, dt: f64, odometry: Option<&OdometryStep>) {
+        self.open_step(dt);
         let c = self.motion.camera_dim();
         let n = self.dim();
         let camera = self.x.rows(0, c).into_owned();
@@ -312,6 +445,7 @@ impl Filter {
                 .view_mut((c, 0), (n - c, c))
                 .copy_from(&pcy.transpose());
         }
+        self.constrain_motion();
     }
 
     /// Eqs 17–21 for landmark `slot` at the current state.
@@ -451,6 +585,8 @@ impl Filter {
     /// Adds inverse-depth landmarks seen from the current pose, each with its own
     /// inverse-depth prior: `(pixel, ρ, σ_ρ)` (a triangulated depth, for instance).
     pub fn add_landmarks_with_depth(&mut self, priors: &[(Vector2<f64>, f64, f64)]) -> Vec<u64> {
+        // Landmark entries move: the step's copy at the end of the state goes first.
+        self.close_step();
         let pixels: Vec<Vector2<f64>> = priors.iter().map(|p| p.0).collect();
         if pixels.is_empty() {
             return Vec::new();
@@ -503,6 +639,8 @@ impl Filter {
 
     /// Deletes the landmarks whose slot index is in `remove` (any order).
     pub fn remove_landmarks(&mut self, remove: &[usize]) {
+        // Landmark entries move: the step's copy at the end of the state goes first.
+        self.close_step();
         if remove.is_empty() {
             return;
         }
@@ -525,6 +663,8 @@ impl Filter {
 
     /// Replaces inverse-depth landmark `slot` by its Euclidean point (3 entries instead of 6).
     pub fn convert_to_euclidean(&mut self, slot: usize) {
+        // Landmark entries move: the step's copy at the end of the state goes first.
+        self.close_step();
         let s = self.slots[slot];
         if s.kind != Parametrisation::InverseDepth || self.landmark(slot)[5] <= 0.0 {
             return;

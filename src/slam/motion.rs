@@ -1,10 +1,12 @@
 //! Motion models for the prediction step (eqs 15–16): the constant-velocity model of a
-//! hand-held camera and the wheel-odometry model of a robot, where u_k is the measured
-//! relative motion between two frames.
+//! hand-held camera, the same model for a camera on a wheeled vehicle with the vehicle's
+//! non-holonomic constraint, and the wheel-odometry model of a robot, where u_k is the
+//! measured relative motion between two frames.
 //!
-//! Both return the predicted camera state, its Jacobian F w.r.t. the previous camera state,
+//! Each returns the predicted camera state, its Jacobian F w.r.t. the previous camera state,
 //! and the process noise Q, all restricted to the camera block (landmarks are static, so the
-//! full F is the identity outside it).
+//! full F is the identity outside it). The wheeled model adds [`constraint`]: pseudo-
+//! measurements of the camera block that the filter takes after every prediction.
 
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
 use serde::{Deserialize, Serialize};
@@ -22,6 +24,13 @@ pub enum MotionModel {
         /// Standard deviation of the angular acceleration, rad/s².
         angular_acceleration: f64,
     },
+    /// A camera on a wheeled robot or a car, looking forward with its axes along the
+    /// vehicle's (x right, y down, z forward): the constant-velocity state plus the camera's
+    /// arm d ahead of the vertical axis the vehicle turns about (14 entries), and the
+    /// vehicle's motion as pseudo-measurements after every prediction (see
+    /// [`WheeledMotion`]). An in-place turn then moves the camera sideways by d·ω, tied to the
+    /// turn instead of free, and d, once seen in a turn, carries the map's unit to the next.
+    Wheeled(WheeledMotion),
     /// Camera state (r, q), 7 entries; motion measured by wheel odometry (u_k of eq 15).
     Odometry {
         /// Translation noise as a fraction of the distance travelled.
@@ -48,7 +57,55 @@ impl Default for MotionModel {
     }
 }
 
+/// `[slam.motion.wheeled]`: the constant-velocity model with a wheeled vehicle's constraints.
+/// The camera's velocity u = R(q)ᵀ v and angular velocity ω in its own frame obey, within the
+/// standard deviations below (map units as the velocities'):
+/// u_x = d·ω_y (no side slip: the only sideways motion is the arm's swing in a turn),
+/// u_y = 0 (no vertical motion), ω_x = ω_z = 0 (no pitch or roll rate).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WheeledMotion {
+    /// Standard deviation of the linear acceleration, map units/s² (as the constant-velocity
+    /// model's).
+    pub linear_acceleration: f64,
+    /// Standard deviation of the angular acceleration, rad/s².
+    pub angular_acceleration: f64,
+    /// Standard deviation of the sideways velocity the arm does not explain (slip, a camera
+    /// yawed on its mount), map units/s. Default 0.01: at 0.05 the rover's turns lose the
+    /// unit again (docs/SLAM.md).
+    pub slip: f64,
+    /// Standard deviation of the vertical velocity, map units/s. Default 0.1: a camera
+    /// pitched by 1–2° on a car at speed moves this much along its own y axis (at 0.01 the
+    /// KITTI clips lost accuracy).
+    pub vertical: f64,
+    /// Standard deviation of the pitch and roll rates, rad/s. Default 0.5, a weak bound: a
+    /// vehicle's vibration turns the camera by a few milliradians at 5–15 Hz (0.2–0.4 rad/s);
+    /// at 0.02 the rover's tracking broke.
+    pub tilt_rate: f64,
+    /// Prior standard deviation of the arm d, map units (its prior mean is 0: the camera on
+    /// the turning axis). A map's unit is about half the median depth of the first view.
+    pub arm_sigma: f64,
+}
+
+impl Default for WheeledMotion {
+    fn default() -> Self {
+        Self {
+            linear_acceleration: 1.0,
+            angular_acceleration: 6.0,
+            slip: 0.01,
+            vertical: 0.1,
+            tilt_rate: 0.5,
+            arm_sigma: 0.5,
+        }
+    }
+}
+
 impl MotionModel {
+    /// The default wheeled-vehicle model.
+    pub fn wheeled() -> Self {
+        MotionModel::Wheeled(WheeledMotion::default())
+    }
+
     /// The default odometry model.
     pub fn odometry() -> Self {
         MotionModel::Odometry {
@@ -59,13 +116,98 @@ impl MotionModel {
         }
     }
 
-    /// Number of camera-state entries: 13 or 7.
+    /// Number of camera-state entries: 13, 14 or 7.
     pub fn camera_dim(&self) -> usize {
         match self {
             MotionModel::ConstantVelocity { .. } => 13,
+            MotionModel::Wheeled(_) => 14,
             MotionModel::Odometry { .. } => 7,
         }
     }
+
+    /// Whether the state carries the velocities (r, q, v, ω, …): the model learns the motion
+    /// from the images rather than from odometry.
+    pub fn has_velocity(&self) -> bool {
+        self.camera_dim() >= 13
+    }
+}
+
+/// Index of the wheeled model's arm d in the camera state.
+pub const ARM: usize = 13;
+
+/// The wheeled model's pseudo-measurements of a camera state: the constraint values c(x)
+/// (zero when the motion obeys them), ∂c/∂x over the camera block, and the standard deviation
+/// of each. `None` for the other models.
+pub fn constraint(
+    model: &MotionModel,
+    camera: &DVector<f64>,
+) -> Option<(DVector<f64>, DMatrix<f64>, DVector<f64>)> {
+    let MotionModel::Wheeled(w) = model else {
+        return None;
+    };
+    let n = model.camera_dim();
+    let q = Quat::new(camera[3], camera[4], camera[5], camera[6]);
+    let v = Vector3::new(camera[7], camera[8], camera[9]);
+    let omega = Vector3::new(camera[10], camera[11], camera[12]);
+    let arm = camera[ARM];
+    let rt = rotation::matrix(&q).transpose();
+    let u = rt * v;
+    let du_dq = rotation::d_rotate_transpose_dq(&q, &v);
+    let value = DVector::from_vec(vec![u.x - arm * omega.y, u.y, omega.x, omega.z]);
+    let mut h = DMatrix::<f64>::zeros(4, n);
+    for row in 0..2 {
+        for k in 0..4 {
+            h[(row, 3 + k)] = du_dq[(row, k)];
+        }
+        for k in 0..3 {
+            h[(row, 7 + k)] = rt[(row, k)];
+        }
+    }
+    // The arm is held here: it is learnt from the steps' displacements (`step_constraint`).
+    h[(0, 11)] = -arm;
+    h[(2, 10)] = 1.0;
+    h[(3, 12)] = 1.0;
+    let sigma = DVector::from_vec(vec![w.slip, w.vertical, w.tilt_rate, w.tilt_rate]);
+    Some((value, h, sigma))
+}
+
+/// The wheeled model's constraints on one step's displacement, for a state x whose last
+/// entries from `origin` hold the previous frame's position r₀: with Δ = R(q)ᵀ (r − r₀),
+/// Δ_x = d·ω_y·dt and Δ_y = 0. Returns the values, the entries of x they depend on and the
+/// Jacobian over those entries. With `learn_arm` false the arm is held (its column is zero):
+/// outside a clear turn the product d·ω_y says nothing of d, but its linearisation about a
+/// noisy ω_y would let the filter believe it learns d on every straight step.
+pub fn step_constraint(
+    x: &DVector<f64>,
+    origin: usize,
+    dt: f64,
+    learn_arm: bool,
+) -> (DVector<f64>, Vec<usize>, DMatrix<f64>) {
+    let r = Vector3::new(x[0], x[1], x[2]);
+    let q = Quat::new(x[3], x[4], x[5], x[6]);
+    let r0 = Vector3::new(x[origin], x[origin + 1], x[origin + 2]);
+    let (omega_y, arm) = (x[11], x[ARM]);
+    let rt = rotation::matrix(&q).transpose();
+    let delta = rt * (r - r0);
+    let d_dq = rotation::d_rotate_transpose_dq(&q, &(r - r0));
+    let value = DVector::from_vec(vec![delta.x - arm * omega_y * dt, delta.y]);
+    // Columns: r (0..3), q (3..7), ω_y, d, r₀.
+    let columns: Vec<usize> = (0..7).chain([11, ARM]).chain(origin..origin + 3).collect();
+    let mut h = DMatrix::<f64>::zeros(2, columns.len());
+    for row in 0..2 {
+        for k in 0..3 {
+            h[(row, k)] = rt[(row, k)];
+            h[(row, 9 + k)] = -rt[(row, k)];
+        }
+        for k in 0..4 {
+            h[(row, 3 + k)] = d_dq[(row, k)];
+        }
+    }
+    h[(0, 7)] = -arm * dt;
+    if learn_arm {
+        h[(0, 8)] = -omega_y * dt;
+    }
+    (value, columns, h)
 }
 
 /// One relative motion measured by odometry, in the previous camera frame.
@@ -93,7 +235,13 @@ pub fn predict(
         MotionModel::ConstantVelocity {
             linear_acceleration,
             angular_acceleration,
-        } => {
+        }
+        | MotionModel::Wheeled(WheeledMotion {
+            linear_acceleration,
+            angular_acceleration,
+            ..
+        }) => {
+            // The wheeled model's arm is a constant: F and Q are the identity and zero there.
             let v = Vector3::new(camera[7], camera[8], camera[9]);
             let w = Vector3::new(camera[10], camera[11], camera[12]);
             let dq = rotation::from_rotation_vector(&(w * dt));
@@ -109,7 +257,7 @@ pub fn predict(
                 rotation::d_multiply_d_right(&q) * rotation::d_from_rotation_vector(&(w * dt)) * dt;
             f.view_mut((3, 10), (4, 3)).copy_from(&dq_dw);
             // Impulses V = a·dt, Ω = α·dt enter like v and ω: G = ∂f/∂(V, Ω) = F[:, v, ω].
-            let mut g = DMatrix::<f64>::zeros(13, 6);
+            let mut g = DMatrix::<f64>::zeros(n, 6);
             g.view_mut((0, 0), (3, 3))
                 .copy_from(&(Matrix3::identity() * dt));
             g.view_mut((3, 3), (4, 3)).copy_from(&dq_dw);
@@ -181,9 +329,12 @@ mod tests {
         x.fixed_rows_mut::<3>(0)
             .copy_from(&Vector3::new(0.5, -0.2, 1.0));
         x.fixed_rows_mut::<4>(3).copy_from(&q);
-        if n == 13 {
+        if model.has_velocity() {
             x.fixed_rows_mut::<6>(7)
                 .copy_from_slice(&[0.3, -0.1, 0.2, 0.4, -0.3, 0.1]);
+        }
+        if n > ARM {
+            x[ARM] = 0.15;
         }
         let (_, f, qn) = predict(model, &x, 0.05, odometry);
         for c in 0..n {
@@ -201,6 +352,74 @@ mod tests {
     #[test]
     fn constant_velocity_jacobian_matches_finite_differences() {
         jacobian_check(&MotionModel::default(), None);
+    }
+
+    #[test]
+    fn wheeled_jacobian_and_constraint_jacobian_match_finite_differences() {
+        let model = MotionModel::wheeled();
+        jacobian_check(&model, None);
+        let mut x = DVector::zeros(14);
+        x.fixed_rows_mut::<4>(3)
+            .copy_from(&rotation::from_rotation_vector(&Vector3::new(
+                0.2, -0.1, 0.3,
+            )));
+        x.fixed_rows_mut::<7>(7)
+            .copy_from_slice(&[0.3, -0.1, 0.2, 0.4, -0.3, 0.1, 0.15]);
+        let (_, h, sigma) = constraint(&model, &x).unwrap();
+        assert!(sigma.iter().all(|&s| s > 0.0));
+        let central = |f: &dyn Fn(&DVector<f64>) -> DVector<f64>, c: usize| {
+            let (mut a, mut b) = (x.clone(), x.clone());
+            a[c] += 1e-6;
+            b[c] -= 1e-6;
+            (f(&a) - f(&b)) / 2e-6
+        };
+        // The velocity constraint holds the arm (its column is zero); every other column is
+        // the derivative.
+        for c in (0..14).filter(|&c| c != ARM) {
+            let fd = central(&|y| constraint(&model, y).unwrap().0, c);
+            assert!((fd - h.column(c)).amax() < 1e-6, "column {c}");
+        }
+        assert_eq!(h.column(ARM).amax(), 0.0);
+        // The step constraint, with the previous position appended at 14..17.
+        let mut x = x.clone().resize_vertically(17, 0.0);
+        x.fixed_rows_mut::<3>(14)
+            .copy_from_slice(&[-0.05, 0.02, -0.1]);
+        let (_, columns, h) = step_constraint(&x, 14, 0.1, true);
+        for (k, &c) in columns.iter().enumerate() {
+            let (mut a, mut b) = (x.clone(), x.clone());
+            a[c] += 1e-6;
+            b[c] -= 1e-6;
+            let fd = (step_constraint(&a, 14, 0.1, true).0 - step_constraint(&b, 14, 0.1, true).0)
+                / 2e-6;
+            assert!((fd - h.column(k)).amax() < 1e-6, "column {c}");
+        }
+        let (_, _, held) = step_constraint(&x, 14, 0.1, false);
+        assert_eq!(held.column(8).amax(), 0.0, "the arm is held outside a turn");
+        let x = x.rows(0, 14).into_owned();
+        assert!(constraint(&MotionModel::default(), &x.rows(0, 13).into_owned()).is_none());
+    }
+
+    #[test]
+    fn a_camera_ahead_of_the_turning_axis_obeys_the_wheeled_constraint() {
+        // A vehicle turning left in place about the world's vertical (−y) axis, the camera
+        // 0.3 units ahead of the axis: its world velocity is the arm's swing.
+        let (arm, rate) = (0.3, 0.8);
+        let heading = 0.4;
+        let q = rotation::from_rotation_vector(&Vector3::new(0.0, -heading, 0.0));
+        let forward = rotation::matrix(&q) * Vector3::z();
+        let up = -Vector3::y();
+        let v = up.cross(&forward) * (rate * arm);
+        // Yawing left about −y is a rotation of −rate about the camera's own y axis.
+        let mut x = DVector::zeros(14);
+        x.fixed_rows_mut::<4>(3).copy_from(&q);
+        x.fixed_rows_mut::<3>(7).copy_from(&v);
+        x[11] = -rate;
+        x[ARM] = arm;
+        let (value, _, _) = constraint(&MotionModel::wheeled(), &x).unwrap();
+        assert!(value.amax() < 1e-12, "{value}");
+        x[ARM] = 0.0;
+        let (value, _, _) = constraint(&MotionModel::wheeled(), &x).unwrap();
+        assert!((value[0].abs() - rate * arm).abs() < 1e-12, "{value}");
     }
 
     #[test]

@@ -67,7 +67,7 @@ impl Slam {
         // constant-velocity model has to learn them from two views.
         let phase = match config.motion {
             MotionModel::Odometry { .. } => Phase::Tracking,
-            MotionModel::ConstantVelocity { .. } => Phase::Starting(None),
+            MotionModel::ConstantVelocity { .. } | MotionModel::Wheeled(_) => Phase::Starting(None),
         };
         let filter = Filter::new(
             camera,
@@ -168,6 +168,8 @@ impl Slam {
 
         let t_filter = Instant::now();
         let outcome = self.update_with(frame, timestamp, &candidates, &inlier_flags);
+        // The wheeled model's step constraint, on the pose the measurements have moved.
+        self.filter.close_step();
         let (lost, relocalised) = self.judge_tracking(&searched, outcome.supported.len());
         // By landmark id: deletion below moves the slots.
         let measured: Vec<(u64, nalgebra::Vector2<f64>)> = candidates

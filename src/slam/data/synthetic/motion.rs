@@ -451,4 +451,27 @@ mod tests {
             assert!((p.position.y - (config.room[1] - 0.3)).abs() < 1e-9);
         }
     }
+
+    #[test]
+    fn the_rovers_sideways_motion_is_its_arm_swinging_as_the_wheeled_model_says() {
+        // At 600 Hz, so that a step's chord is its velocity: the sideways velocity in the
+        // camera frame is d·ω_y (`slam::motion::constraint`'s first row) with d the arm.
+        let config = SyntheticConfig::for_motion(SyntheticMotion::Rover);
+        let poses = trajectory(&config, INTEGRATION_RATE, 20 * config.frames);
+        let (mut sideways, mut unexplained) = (0.0, 0.0);
+        for w in poses.windows(2) {
+            let dt = w[1].timestamp - w[0].timestamp;
+            let step = crate::slam::motion::relative_motion(
+                &w[0].position,
+                &w[0].orientation,
+                &w[1].position,
+                &w[1].orientation,
+            );
+            let (u, omega) = (step.translation / dt, step.rotation / dt);
+            sideways += u.x.abs();
+            unexplained += (u.x - ROVER_CAMERA_AHEAD * omega.y).abs();
+        }
+        assert!(sideways > 1.0, "the rover never turns ({sideways})");
+        assert!(unexplained < 0.05 * sideways, "{unexplained} of {sideways}");
+    }
 }
