@@ -13,6 +13,8 @@
 #   from its 16th frame, at 5 Hz (even and odd frames), played backwards, and standing still
 #   on its first frame for 1.5 s before it drives off.
 # Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
+# WHEELED=1 runs the vehicles (drive, rover, KITTI clips) with `--wheeled`, the wheeled motion
+# model; the room and the walk, carried by hand, keep the constant-velocity model.
 # STEERNAV names the binary (default: target/release/steernav, built first), so that a saved
 # build can be judged beside the tree's in one session.
 # With BASELINE=1, a last column gives the ATE of the 40-line OpenCV visual odometry
@@ -58,15 +60,16 @@ derive() { # name src
   done
 }
 
+vehicle=""
+[ "${WHEELED:-0}" = 1 ] && vehicle="--wheeled"
 sequences=()
 for seed in 1 2 3 7 11; do synth "room-$seed" room "$seed" "" && sequences+=("room-$seed|"); done
-for seed in 1 2 3 7 11; do synth "drive-$seed" drive "$seed" "" && sequences+=("drive-$seed|"); done
-for seed in 7 3; do synth "drive5hz-$seed" drive "$seed" 5 && sequences+=("drive5hz-$seed|"); done
+for seed in 1 2 3 7 11; do synth "drive-$seed" drive "$seed" "" && sequences+=("drive-$seed|$vehicle"); done
+for seed in 7 3; do synth "drive5hz-$seed" drive "$seed" 5 && sequences+=("drive5hz-$seed|$vehicle"); done
 if [ "${INDOOR:-1}" = 1 ]; then
-  for motion in walk rover; do
-    for seed in 1 2 3 7 11; do
-      synth "$motion-$seed" "$motion" "$seed" "" && sequences+=("$motion-$seed|")
-    done
+  for seed in 1 2 3 7 11; do synth "walk-$seed" walk "$seed" "" && sequences+=("walk-$seed|"); done
+  for seed in 1 2 3 7 11; do
+    synth "rover-$seed" rover "$seed" "" && sequences+=("rover-$seed|$vehicle")
   done
 fi
 if [ -n "$clips" ]; then
@@ -74,13 +77,13 @@ if [ -n "$clips" ]; then
     src=${src%/}
     name=$(basename "$src")
     n=$(find "$src/image_l" -maxdepth 1 -name '*.png' | wc -l)
-    seq 0 $((n - 1)) | derive "$name" "$src" && sequences+=("$name|--fps 10")
-    seq 15 $((n - 1)) | derive "$name-from15" "$src" && sequences+=("$name-from15|--fps 10")
-    seq 0 2 $((n - 1)) | derive "$name-5hz-even" "$src" && sequences+=("$name-5hz-even|--fps 5")
-    seq 1 2 $((n - 1)) | derive "$name-5hz-odd" "$src" && sequences+=("$name-5hz-odd|--fps 5")
-    seq $((n - 1)) -1 0 | derive "$name-reversed" "$src" && sequences+=("$name-reversed|--fps 10")
+    seq 0 $((n - 1)) | derive "$name" "$src" && sequences+=("$name|--fps 10 $vehicle")
+    seq 15 $((n - 1)) | derive "$name-from15" "$src" && sequences+=("$name-from15|--fps 10 $vehicle")
+    seq 0 2 $((n - 1)) | derive "$name-5hz-even" "$src" && sequences+=("$name-5hz-even|--fps 5 $vehicle")
+    seq 1 2 $((n - 1)) | derive "$name-5hz-odd" "$src" && sequences+=("$name-5hz-odd|--fps 5 $vehicle")
+    seq $((n - 1)) -1 0 | derive "$name-reversed" "$src" && sequences+=("$name-reversed|--fps 10 $vehicle")
     { yes 0 | head -15; seq 0 $((n - 1)); } | derive "$name-stopped" "$src" &&
-      sequences+=("$name-stopped|--fps 10")
+      sequences+=("$name-stopped|--fps 10 $vehicle")
   done
 fi
 
@@ -106,6 +109,8 @@ for entry in "${sequences[@]}"; do
   drift=$(sed -n 's/.*scale drift \([0-9.]*\) (last.*/\1/p' "$log")
   printf '%-22s %6s %8s %8s %7s' "$name" "$lost" "$frames" "$ate" "${drift:--}"
   if [ "$baseline" = 1 ]; then
+    # The baseline and slam-eval take the rate, not the motion model.
+    for i in "${!flags[@]}"; do [ "${flags[$i]}" = --wheeled ] && unset 'flags[i]'; done
     truth=$(find "$SUITE_DIR/$name" -maxdepth 1 \( -name poses.txt -o -name groundtruth.txt \) | head -1)
     vo="$SUITE_DIR/$name.vo.txt"
     if .venv-peers/bin/python tools/vo_baseline.py "$SUITE_DIR/$name" "${flags[@]}" --out "$vo" \

@@ -48,6 +48,12 @@ pub struct SlamCmd {
     /// model (u_k of eq 15 = relative motion between frames, interpolated at frame times).
     #[arg(long, value_name = "FILE")]
     odometry: Option<PathBuf>,
+    /// The camera rides a wheeled robot or a car, looking forward: the wheeled motion model
+    /// (no side slip, no vertical motion, the camera's arm ahead of the turning axis learnt
+    /// in the turns), with the settings' [slam.motion.wheeled] values or its defaults. Without
+    /// it (and without odometry) the camera may move any way (constant velocity).
+    #[arg(long, conflicts_with_all = ["odometry", "odom_topic"])]
+    wheeled: bool,
     /// Output directory: the estimated trajectory goes to DIR/trajectory.txt, written frame by
     /// frame (see --format).
     #[arg(long, value_name = "DIR", default_value = "slam-out")]
@@ -123,7 +129,11 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         ),
         (None, None, _) => None,
     };
-    if track.is_some() && matches!(config.motion, MotionModel::ConstantVelocity { .. }) {
+    if cmd.wheeled && !matches!(config.motion, MotionModel::Wheeled(_)) {
+        config.motion = MotionModel::wheeled();
+    }
+    // Measured motion replaces a model of it.
+    if track.is_some() && !matches!(config.motion, MotionModel::Odometry { .. }) {
         config.motion = MotionModel::odometry();
     }
     let mut odometry = track;
