@@ -1,7 +1,8 @@
 //! Map management (section 2.6): landmarks created from steernav keypoints in image cells
-//! without tracked features (eq 13, at the prior depth or at a two-frame depth), inverse-depth
-//! landmarks converted to Euclidean by their linearity index, and landmarks deleted when they
-//! keep failing or the map is full.
+//! without tracked features (eq 13, at the prior depth, at the scene's depth while a wheeled
+//! vehicle turns in place, or at a two-frame depth), inverse-depth landmarks converted to
+//! Euclidean by their linearity index, and landmarks deleted when they keep failing or the map
+//! is full.
 
 use std::time::Instant;
 
@@ -15,8 +16,17 @@ use crate::image::Frame;
 use crate::slam::association::{self, Template};
 use crate::slam::inverse_depth::{self, Parametrisation};
 use crate::slam::klt::{self, Pyramid};
+use crate::slam::motion::MotionModel;
 use crate::slam::rotation;
 use crate::slam::two_view;
+
+/// The wheeled model's turning prior applies while the camera translates less than this
+/// fraction of what its rotation sweeps at the scene's depth (|v| < k·|ω|/ρ): an in-place
+/// turn on its arm is about 0.05, a car in a bend about 1.
+const TURNING_TRANSLATION: f64 = 0.2;
+/// σ_ρ of the turning prior, as a fraction of its ρ (0.3 and 1.0 measured worse on the
+/// rover: docs/SLAM.md).
+const TURNING_PRIOR_SPREAD: f64 = 0.5;
 
 /// What the front end keeps about one landmark beside the filter.
 #[derive(Clone, Debug)]
@@ -67,10 +77,10 @@ impl Slam {
         let t_create = Instant::now();
         let want =
             (self.config.map.target_visible - visible.len()).min(self.config.map.max_new_per_frame);
-        let (rho, sigma) = (
+        let (rho, sigma) = self.turning_prior().unwrap_or((
             self.config.filter.initial_inverse_depth,
             self.config.filter.inverse_depth_sigma,
-        );
+        ));
         let priors = detection
             .keypoints
             .iter()
@@ -83,6 +93,42 @@ impl Slam {
             self.detect_after = self.frame_index + self.config.map.redetect_interval;
         }
         Ok((created, detection_ms, ms(t_create)))
+    }
+
+    /// The wheeled model's prior for landmarks met while the vehicle turns in place: the
+    /// median inverse distance of the converged landmarks in view (σ_ρ/ρ < 0.3, at least 5),
+    /// in the map's own unit, ± half of it. An in-place turn sweeps the camera over surfaces
+    /// at the room's depths with almost no baseline, and ρ₀ (a fixed 2 units) would drag the
+    /// unit towards itself. `None` (the caller keeps ρ₀) for the other models and when the
+    /// camera translates more than a fifth of what its rotation sweeps at that depth.
+    fn turning_prior(&self) -> Option<(f64, f64)> {
+        if !matches!(self.filter.motion(), MotionModel::Wheeled(_)) {
+            return None;
+        }
+        let r = self.filter.position();
+        let cam = self.filter.camera();
+        let mut inverse: Vec<f64> = (0..self.filter.slots().len())
+            .filter(|&slot| {
+                self.filter
+                    .predict_observation(slot)
+                    .is_some_and(|p| cam.contains(&p.pixel, 0.0))
+            })
+            .filter_map(|slot| {
+                let point = self.filter.landmark_point(slot)?;
+                let rho = 1.0 / (point - r).norm().max(1e-9);
+                let sigma = self.filter.rho_variance(slot).sqrt();
+                (sigma < 0.3 * rho).then_some(rho)
+            })
+            .collect();
+        if inverse.len() < 5 {
+            return None;
+        }
+        let mid = inverse.len() / 2;
+        let rho = *inverse.select_nth_unstable_by(mid, f64::total_cmp).1;
+        let x = self.filter.state();
+        let speed = nalgebra::Vector3::new(x[7], x[8], x[9]).norm();
+        let turn = nalgebra::Vector3::new(x[10], x[11], x[12]).norm();
+        (speed < TURNING_TRANSLATION * turn / rho).then_some((rho, TURNING_PRIOR_SPREAD * rho))
     }
 
     /// Starts landmarks at `priors` (pixel, ρ, σ_ρ), best first, at most one per grid cell
