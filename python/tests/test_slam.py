@@ -46,6 +46,19 @@ def test_slam_takes_detector_and_nested_slam_settings(sample):
         steernav.Slam(500.0, 500.0, w / 2, h / 2, w, h, map={"max_landmarks": 5, "target_visible": 20})
 
 
+def test_slam_takes_the_wheeled_motion_model_and_names_its_bad_keys(sample):
+    h, w = sample.shape[:2]
+    slam = steernav.Slam(
+        500.0, 500.0, w / 2, h / 2, w, h, backend="cpu", motion={"wheeled": {"slip": 0.02}},
+    )
+    reports = [slam.process(sample, 0.1 * k) for k in range(2)]
+    assert all(r.initialising and not r.lost for r in reports)
+    with pytest.raises(ValueError, match="unknown field `arm`"):
+        steernav.Slam(500.0, 500.0, w / 2, h / 2, w, h, motion={"wheeled": {"arm": 0.1}})
+    with pytest.raises(ValueError, match="slam.motion.wheeled.slip"):
+        steernav.Slam(500.0, 500.0, w / 2, h / 2, w, h, motion={"wheeled": {"slip": -1.0}})
+
+
 def test_slam_refuses_pickling_saying_why():
     import pickle
 
