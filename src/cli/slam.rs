@@ -327,9 +327,20 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     println!("trajectory: {}", traj_path.display());
     let estimate: Vec<Pose> = estimated.iter().map(|e| e.pose).collect();
     let mut aligned_truth = None;
+    let arm = slam.filter().arm();
+    if let Some((d, sigma)) = arm {
+        println!("wheeled model: camera {d:.4} ± {sigma:.4} map units ahead of the turning axis");
+    }
     if let (Some(truth), Some(path)) = (&truth, &truth_path) {
         match trajectory::evaluate(&estimate, truth, 0.02) {
             Ok(e) => {
+                if let Some((d, sigma)) = arm {
+                    println!(
+                        "wheeled model: the arm at the fitted scale, {:.3} ± {:.3} m",
+                        d * e.scale,
+                        sigma * e.scale
+                    );
+                }
                 println!(
                     "against {}: ATE {:.4} m RMSE ({:.2}% of the {:.2} m path), {}, scale {:.4}, {}, {} poses matched",
                     path.display(),

@@ -165,6 +165,18 @@ impl Filter {
         &self.motion
     }
 
+    /// The wheeled model's estimate of the camera's arm ahead of the turning axis and its
+    /// standard deviation, in map units (× the map's scale gives metres, a check against the
+    /// vehicle's geometry); `None` for the other models.
+    pub fn arm(&self) -> Option<(f64, f64)> {
+        matches!(self.motion, MotionModel::Wheeled(_)).then(|| {
+            (
+                self.x[motion::ARM],
+                self.p[(motion::ARM, motion::ARM)].sqrt(),
+            )
+        })
+    }
+
     /// Puts the camera at `seat`: its entries of x are replaced, its rows and columns of P
     /// are cleared (the old map's correlations with the camera no longer hold) and given the
     /// seat's variances.
