@@ -556,6 +556,42 @@ fn bench_nav_suite_times_gist_and_the_field() {
     assert!(rows.iter().any(|r| r["size"] == "B=4096"));
 }
 
+/// `slam --wheeled` runs the wheeled motion model and says the arm it learnt; it refuses to be
+/// combined with wheel odometry, which measures the motion instead of modelling it.
+#[test]
+fn slam_wheeled_reports_the_arm_and_refuses_odometry_beside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let synth = dir.path().join("synth");
+    run_ok(
+        steernav()
+            .args(["slam-synth", "--out", synth.to_str().unwrap()])
+            .args(["--motion", "drive", "--frames", "20"]),
+    );
+    let out = run_ok(
+        steernav()
+            .args(["slam", synth.to_str().unwrap(), "--backend", "cpu"])
+            .args([
+                "--wheeled",
+                "--out",
+                dir.path().join("out").to_str().unwrap(),
+            ]),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("wheeled model: camera"), "{stdout}");
+    assert!(stdout.contains("the arm at the fitted scale"), "{stdout}");
+    let out = steernav()
+        .args(["slam", synth.to_str().unwrap(), "--wheeled", "--odometry"])
+        .arg(synth.join("groundtruth.txt"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--wheeled") && stderr.contains("--odometry"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
