@@ -16,6 +16,7 @@ use super::camera::PinholeCamera;
 use super::inverse_depth::{self, Parametrisation, Prediction};
 use super::motion::{self, MotionModel, OdometryStep};
 use super::rotation::{self, Quat};
+use super::wheeled;
 
 /// Where a landmark lives in the state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,8 +61,9 @@ pub struct Filter {
     pixel_sigma: f64,
     next_id: u64,
     /// The wheeled model's open step: where the copy of the previous frame's position sits
-    /// (the last 3 entries of x) and the step's duration, until [`Filter::close_step`].
-    step: Option<(usize, f64)>,
+    /// (the last 3 entries of x) and the step's duration, until it is closed
+    /// (`slam::wheeled`).
+    pub(in crate::slam) step: Option<(usize, f64)>,
 }
 
 /// Where the two-view start puts the camera, with the variances it gives each part: the
@@ -84,18 +86,6 @@ pub(in crate::slam) struct Seat {
 
 /// The pose entries (r, q) are the first 7 of the camera state in every motion model.
 pub const POSE: usize = 7;
-
-/// How many standard deviations from zero the yaw rate must be for a step to teach the
-/// wheeled model its arm.
-const ARM_EVIDENCE: f64 = 3.0;
-
-/// The prior variance of the wheeled model's arm; `None` for the other models.
-fn arm_variance(motion: &MotionModel) -> Option<f64> {
-    match motion {
-        MotionModel::Wheeled(w) => Some(w.arm_sigma * w.arm_sigma),
-        _ => None,
-    }
-}
 
 impl Filter {
     /// A filter at the origin, looking along +z, with a small velocity prior.
@@ -120,7 +110,7 @@ impl Filter {
                 p[(i + 3, i + 3)] = angular_velocity_sigma * angular_velocity_sigma;
             }
         }
-        if let Some(variance) = arm_variance(&motion) {
+        if let Some(variance) = wheeled::arm_variance(&motion) {
             p[(motion::ARM, motion::ARM)] = variance;
         }
         Self {
@@ -165,18 +155,6 @@ impl Filter {
         &self.motion
     }
 
-    /// The wheeled model's estimate of the camera's arm ahead of the turning axis and its
-    /// standard deviation, in map units (× the map's scale gives metres, a check against the
-    /// vehicle's geometry); `None` for the other models.
-    pub fn arm(&self) -> Option<(f64, f64)> {
-        matches!(self.motion, MotionModel::Wheeled(_)).then(|| {
-            (
-                self.x[motion::ARM],
-                self.p[(motion::ARM, motion::ARM)].sqrt(),
-            )
-        })
-    }
-
     /// Puts the camera at `seat`: its entries of x are replaced, its rows and columns of P
     /// are cleared (the old map's correlations with the camera no longer hold) and given the
     /// seat's variances.
@@ -194,7 +172,7 @@ impl Filter {
         for i in 3..POSE {
             self.p[(i, i)] = seat.orientation_variance;
         }
-        if let Some(variance) = arm_variance(&self.motion) {
+        if let Some(variance) = wheeled::arm_variance(&self.motion) {
             // The arm keeps its estimate; the start fixes the map's unit, so its prior
             // (in map units) starts afresh.
             self.p[(motion::ARM, motion::ARM)] = variance;
@@ -250,7 +228,7 @@ impl Filter {
     /// Eqs 22–24 for a measurement that touches the entries `columns` of x alone: innovation
     /// `nu`, Jacobian `h` over those entries, noise covariance `r`. The rest of the state
     /// follows through its correlations with them.
-    fn update_columns(
+    pub(in crate::slam) fn update_columns(
         &mut self,
         nu: &DVector<f64>,
         columns: &[usize],
@@ -282,90 +260,10 @@ impl Filter {
         Ok(())
     }
 
-    /// The motion model's pseudo-measurements (the wheeled model's constraints), taken as an
-    /// update of the camera block. A refused update leaves the state as predicted.
-    fn constrain_motion(&mut self) {
-        let c = self.motion.camera_dim();
-        let camera = self.x.rows(0, c).into_owned();
-        let Some((value, h, sigma)) = motion::constraint(&self.motion, &camera) else {
-            return;
-        };
-        self.take_constraint(&value, &(0..c).collect::<Vec<_>>(), &h, &sigma);
-    }
-
-    /// Takes pseudo-measurements c(x) = 0 ± `sigma` with Jacobian `h` over `columns`.
-    fn take_constraint(
-        &mut self,
-        value: &DVector<f64>,
-        columns: &[usize],
-        h: &DMatrix<f64>,
-        sigma: &DVector<f64>,
-    ) {
-        let nu = DVector::from_iterator(value.len(), value.iter().map(|v| -v));
-        let r = DMatrix::from_diagonal(&DVector::from_iterator(
-            sigma.len(),
-            sigma.iter().map(|s| s * s),
-        ));
-        if self.update_columns(&nu, columns, h, &r).is_err() {
-            log::debug!("wheeled motion constraint refused: innovation covariance not definite");
-        }
-    }
-
-    /// Opens a step of the wheeled model before a prediction: the current position is copied
-    /// to the end of the state (x and P), so that the step's displacement can be constrained
-    /// once the frame's measurements have moved the pose (stochastic cloning).
-    fn open_step(&mut self, dt: f64) {
-        self.close_step();
-        if !matches!(self.motion, MotionModel::Wheeled(_)) {
-            return;
-        }
-        let n = self.dim();
-        let mut x = DVector::zeros(n + 3);
-        x.rows_mut(0, n).copy_from(&self.x);
-        x.rows_mut(n, 3).copy_from(&self.x.rows(0, 3));
-        let mut p = DMatrix::zeros(n + 3, n + 3);
-        p.view_mut((0, 0), (n, n)).copy_from(&self.p);
-        p.view_mut((n, 0), (3, n)).copy_from(&self.p.rows(0, 3));
-        p.view_mut((0, n), (n, 3)).copy_from(&self.p.columns(0, 3));
-        p.view_mut((n, n), (3, 3))
-            .copy_from(&self.p.view((0, 0), (3, 3)));
-        self.x = x;
-        self.p = p;
-        self.step = Some((n, dt));
-    }
-
-    /// Closes the wheeled model's open step: its displacement, in the camera's frame, obeys
-    /// the vehicle's constraints (sideways only by the arm's swing d·ω_y·dt, nothing
-    /// vertically), then the copy of the previous position leaves the state. The velocity
-    /// constraints tie the prediction; this ties what the measurements did to the pose.
-    /// Called once the frame's updates are in; a no-op when no step is open.
-    pub(in crate::slam) fn close_step(&mut self) {
-        let Some((origin, dt)) = self.step.take() else {
-            return;
-        };
-        if let MotionModel::Wheeled(w) = &self.motion {
-            // The arm is learnt only in a clear turn (see `motion::step_constraint`).
-            let learn_arm = self.x[11].abs() > ARM_EVIDENCE * self.p[(11, 11)].sqrt();
-            let (value, columns, h) = motion::step_constraint(&self.x, origin, dt, learn_arm);
-            let sigma = DVector::from_vec(vec![w.slip * dt, w.vertical * dt]);
-            self.take_constraint(&value, &columns, &h, &sigma);
-        }
-        self.drop_step_copy(origin);
-    }
-
-    /// Removes the copy of the previous position (the last 3 entries) from x and P.
-    fn drop_step_copy(&mut self, origin: usize) {
-        self.x = self.x.rows(0, origin).into_owned();
-        self.p = self.p.view((0, 0), (origin, origin)).into_owned();
-    }
-
     /// Drops the correlations between the camera and the map, keeping both marginals: the
     /// pose is about to be measured afresh against the map (relocalisation).
     pub(in crate::slam) fn decorrelate_camera(&mut self) {
-        // The step's copy of the previous position is as unrelated to the re-measured pose.
-        if let Some((origin, _)) = self.step.take() {
-            self.drop_step_copy(origin);
-        }
+        self.discard_step();
         let c = self.motion.camera_dim();
         let n = self.dim();
         if n > c {
@@ -597,8 +495,7 @@ impl Filter {
     /// Adds inverse-depth landmarks seen from the current pose, each with its own
     /// inverse-depth prior: `(pixel, ρ, σ_ρ)` (a triangulated depth, for instance).
     pub fn add_landmarks_with_depth(&mut self, priors: &[(Vector2<f64>, f64, f64)]) -> Vec<u64> {
-        // Landmark entries move: the step's copy at the end of the state goes first.
-        self.close_step();
+        self.close_step(); // Landmark entries move: the step's copy at the end goes first.
         let pixels: Vec<Vector2<f64>> = priors.iter().map(|p| p.0).collect();
         if pixels.is_empty() {
             return Vec::new();
@@ -651,8 +548,7 @@ impl Filter {
 
     /// Deletes the landmarks whose slot index is in `remove` (any order).
     pub fn remove_landmarks(&mut self, remove: &[usize]) {
-        // Landmark entries move: the step's copy at the end of the state goes first.
-        self.close_step();
+        self.close_step(); // Landmark entries move: the step's copy at the end goes first.
         if remove.is_empty() {
             return;
         }
@@ -675,8 +571,7 @@ impl Filter {
 
     /// Replaces inverse-depth landmark `slot` by its Euclidean point (3 entries instead of 6).
     pub fn convert_to_euclidean(&mut self, slot: usize) {
-        // Landmark entries move: the step's copy at the end of the state goes first.
-        self.close_step();
+        self.close_step(); // Landmark entries move: the step's copy at the end goes first.
         let s = self.slots[slot];
         if s.kind != Parametrisation::InverseDepth || self.landmark(slot)[5] <= 0.0 {
             return;

@@ -2,7 +2,8 @@
 //! 13–27), fed by steernav keypoints.
 //!
 //! - [`camera`]: pinhole + distortion (eq 20), the stereo pair (eqs 1–2), calibration files.
-//! - [`crate::low_level::motion`]: constant-velocity and odometry motion models (eqs 15–16).
+//! - [`crate::low_level::motion`]: constant-velocity, wheeled-vehicle and odometry motion
+//!   models (eqs 15–16); `wheeled` holds the filter's side of the wheeled one.
 //! - [`crate::low_level::ekf`]: the filter's state, prediction and sparse update (eqs 22–24).
 //! - [`Slam`]: the per-frame loop (eqs 25–27, map management), in rooms.
 //! - [`refine`]: the local bundle adjustment over the last keyframes.
@@ -22,6 +23,7 @@ pub mod refine;
 pub(crate) mod rotation;
 pub(crate) mod tracker;
 pub(crate) mod two_view;
+mod wheeled;
 
 pub use config::SlamConfig;
 pub use inverse_depth::Parametrisation;
