@@ -44,11 +44,18 @@ pub(super) struct Track {
 impl Slam {
     /// Pixels of the landmarks predicted inside the image.
     pub(super) fn visible_pixels(&self) -> Vec<Vector2<f64>> {
+        self.visible_landmarks()
+            .into_iter()
+            .map(|(_, z)| z)
+            .collect()
+    }
+
+    /// The landmarks predicted inside the image: slot and pixel.
+    fn visible_landmarks(&self) -> Vec<(usize, Vector2<f64>)> {
         let cam = self.filter.camera();
         (0..self.filter.slots().len())
-            .filter_map(|slot| self.filter.predict_observation(slot))
-            .map(|p| p.pixel)
-            .filter(|z| cam.contains(z, 0.0))
+            .filter_map(|slot| Some((slot, self.filter.predict_observation(slot)?.pixel)))
+            .filter(|(_, z)| cam.contains(z, 0.0))
             .collect()
     }
 
@@ -61,7 +68,8 @@ impl Slam {
         detector: &Detector,
         views: Option<(&Pyramid, &Pyramid)>,
     ) -> Result<(usize, f64, f64)> {
-        let visible = self.visible_pixels();
+        let in_view = self.visible_landmarks();
+        let visible: Vec<Vector2<f64>> = in_view.iter().map(|&(_, z)| z).collect();
         // After a detection that found no free cell, wait before trying again, unless the
         // map is down to less than half its target: then a frame without new landmarks
         // risks losing the track, which costs more than a detection.
@@ -77,7 +85,7 @@ impl Slam {
         let t_create = Instant::now();
         let want =
             (self.config.map.target_visible - visible.len()).min(self.config.map.max_new_per_frame);
-        let (rho, sigma) = self.turning_prior().unwrap_or((
+        let (rho, sigma) = self.turning_prior(&in_view).unwrap_or((
             self.config.filter.initial_inverse_depth,
             self.config.filter.inverse_depth_sigma,
         ));
@@ -96,24 +104,20 @@ impl Slam {
     }
 
     /// The wheeled model's prior for landmarks met while the vehicle turns in place: the
-    /// median inverse distance of the converged landmarks in view (σ_ρ/ρ < 0.3, at least 5),
+    /// median inverse distance of the converged landmarks in view (`in_view`, from
+    /// [`Slam::visible_landmarks`]; σ_ρ/ρ < 0.3, at least 5),
     /// in the map's own unit, ± half of it. An in-place turn sweeps the camera over surfaces
     /// at the room's depths with almost no baseline, and ρ₀ (a fixed 2 units) would drag the
     /// unit towards itself. `None` (the caller keeps ρ₀) for the other models and when the
     /// camera translates more than a fifth of what its rotation sweeps at that depth.
-    fn turning_prior(&self) -> Option<(f64, f64)> {
+    fn turning_prior(&self, in_view: &[(usize, Vector2<f64>)]) -> Option<(f64, f64)> {
         if !matches!(self.filter.motion(), MotionModel::Wheeled(_)) {
             return None;
         }
         let r = self.filter.position();
-        let cam = self.filter.camera();
-        let mut inverse: Vec<f64> = (0..self.filter.slots().len())
-            .filter(|&slot| {
-                self.filter
-                    .predict_observation(slot)
-                    .is_some_and(|p| cam.contains(&p.pixel, 0.0))
-            })
-            .filter_map(|slot| {
+        let mut inverse: Vec<f64> = in_view
+            .iter()
+            .filter_map(|&(slot, _)| {
                 let point = self.filter.landmark_point(slot)?;
                 let rho = 1.0 / (point - r).norm().max(1e-9);
                 let sigma = self.filter.rho_variance(slot).sqrt();
