@@ -151,3 +151,32 @@ fn guided_matching_adds_correct_inliers_under_a_zoom() {
         guided.len()
     );
 }
+
+#[test]
+fn the_match_command_keeps_a_thousand_keypoints_unless_told_otherwise() {
+    // Two views are matched at the homography evaluation's 1000 keypoints
+    // (`DetectorConfig::matching`); the flag and the settings file still set the count.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = textured_scene(640, 480, 9);
+    let a = dir.path().join("a.png");
+    image::RgbImage::from_raw(scene.width, scene.height, scene.rgb.clone())
+        .unwrap()
+        .save(&a)
+        .unwrap();
+    let settings = dir.path().join("settings.toml");
+    std::fs::write(&settings, "[detector]\nmax_keypoints = 300\n").unwrap();
+    let count = |extra: &[&std::ffi::OsStr]| {
+        let out = run_ok(
+            steernav()
+                .args(["match", "--backend", "cpu", "--json"])
+                .args(extra)
+                .args([&a, &a]),
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["keypoints1"].as_u64().unwrap() as usize
+    };
+    let default = count(&[]);
+    assert!((501..=1000).contains(&default), "{default} keypoints");
+    assert_eq!(count(&["--max-keypoints".as_ref(), "200".as_ref()]), 200);
+    assert_eq!(count(&["--config".as_ref(), settings.as_os_str()]), 300);
+}

@@ -3,8 +3,8 @@
 # once (issue 20): correct matches at 3 px and homography accuracy at 3 px on each Oxford
 # sequence and over all four (1000 keypoints), and the rotation sweep's mean and minimum
 # repeatability and recall (15–75° every 15°, ε = 2 px, 500 keypoints, the sample and img1 of
-# each sequence), and the inliers of `steernav match` on bark and graf img1 against img4 (the
-# defaults: 500 keypoints, guided). steernav only, CPU; about 13 s on two cores.
+# each sequence), and the inliers of `steernav match` on bark and graf img1 against img4 (its
+# defaults: 1000 keypoints, guided). steernav only, CPU; about 13 s on two cores.
 #
 #   tools/detector-suite.sh [SETTINGS.toml] [detector flags...]
 #

@@ -92,11 +92,16 @@ impl DetectorArgs {
     /// The detector from `base` in place of the library defaults: the settings file's
     /// [detector] keys over it, the flags over both.
     pub fn detector_from(&self, base: DetectorConfig) -> anyhow::Result<Detector> {
-        let config = self.config.settings()?.detector_over(base)?;
         Ok(Detector::new(
-            &self.flags.apply(config)?,
+            &self.config_from(base)?,
             self.backend.backend,
         )?)
+    }
+
+    /// The settings of [`DetectorArgs::detector_from`].
+    pub fn config_from(&self, base: DetectorConfig) -> anyhow::Result<DetectorConfig> {
+        let config = self.config.settings()?.detector_over(base)?;
+        self.flags.apply(config)
     }
 }
 
@@ -110,7 +115,7 @@ pub struct DetectorFlags {
     /// [default: 11; slam: 3].
     #[arg(long, value_name = "S")]
     pub scales: Option<usize>,
-    /// Keep at most K keypoints, the strongest [default: 500].
+    /// Keep at most K keypoints, the strongest [default: 500; match: 1000].
     #[arg(long, value_name = "K")]
     pub max_keypoints: Option<usize>,
     /// How the K keypoints are chosen: strongest, or anms (adaptive non-maximal suppression

@@ -9,7 +9,7 @@ use clap::Args;
 use serde::Serialize;
 use steernav::features::matching::{MatchSettings, Matched, Verification};
 use steernav::features::DescriptorKind;
-use steernav::Frame;
+use steernav::{Detector, DetectorConfig, Frame};
 
 use crate::args::{choice, DetectorArgs};
 use crate::draw;
@@ -101,10 +101,11 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
         } => anyhow::anyhow!("--{} {value}: {reason}", field.replace('_', "-")),
         other => other.into(),
     })?;
-    if cmd.detector.config()?.descriptor == DescriptorKind::None {
+    let config = cmd.detector.config_from(DetectorConfig::matching())?;
+    if config.descriptor == DescriptorKind::None {
         anyhow::bail!("--descriptor none: the keypoints would carry nothing to match on");
     }
-    let detector = cmd.detector.detector()?;
+    let detector = Detector::new(&config, cmd.detector.backend.backend)?;
     let load = |path: &PathBuf| -> anyhow::Result<(Frame, steernav::Detection)> {
         let frame = Frame::load_limited(path, cmd.detector.max_pixels)?;
         let d = detector
