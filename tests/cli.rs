@@ -1442,3 +1442,56 @@ fn batch_summaries_name_files_by_their_own_bytes() {
         );
     }
 }
+
+/// `slam-synth --depth` writes the true depth as TUM RGB-D does (depth/ of 16-bit PNGs at
+/// 5000 per metre, depth.txt), and `slam` on such a folder measures the map's depths against
+/// it: per frame in depth_ratios.csv, and over the thirds of the run in the summary, where on
+/// the generated room the map's unit is the trajectory's (measured 0.96 / 0.99 / 1.00).
+#[test]
+fn slam_measures_the_maps_depths_against_tum_depth_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let synth = dir.path().join("synth");
+    run_ok(
+        steernav()
+            .args(["slam-synth", "--frames", "60", "--depth", "--out"])
+            .arg(&synth),
+    );
+    let listed = std::fs::read_to_string(synth.join("depth.txt")).unwrap();
+    let first = listed
+        .lines()
+        .find(|l| !l.starts_with('#'))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .unwrap();
+    assert_eq!(listed.lines().filter(|l| !l.starts_with('#')).count(), 60);
+    let depth = image::open(synth.join(first)).unwrap();
+    assert!(matches!(depth, image::DynamicImage::ImageLuma16(_)));
+    let out = dir.path().join("out");
+    let run = run_ok(
+        steernav()
+            .args(["slam", "--backend", "cpu", "--out"])
+            .arg(&out)
+            .arg(&synth),
+    );
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("map depths against depth.txt"))
+        .unwrap_or_else(|| panic!("no depth line in {stdout}"));
+    let metric: Vec<f64> = line
+        .split("× the trajectory's scale ")
+        .nth(1)
+        .unwrap()
+        .split(" (")
+        .next()
+        .unwrap()
+        .split(" / ")
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(metric.len(), 3, "{line}");
+    for m in metric {
+        assert!((0.85..1.15).contains(&m), "{line}");
+    }
+    let rows = std::fs::read_to_string(out.join("depth_ratios.csv")).unwrap();
+    assert!(rows.starts_with("timestamp,landmarks,ratio_q1,ratio_median,ratio_q3"));
+    assert!(rows.lines().count() > 40, "{rows}");
+}

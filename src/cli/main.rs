@@ -43,6 +43,7 @@ mod nav_eval;
 mod nav_replay;
 mod nav_sweep;
 mod slam;
+mod slam_depth;
 mod slam_eval;
 mod slam_synth;
 

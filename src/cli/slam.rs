@@ -19,6 +19,7 @@ use steernav::slam::{FrameReport, Slam};
 use steernav::{Frame, PinholeCamera};
 
 use crate::args::{progress, DetectorArgs};
+use crate::slam_depth::DepthCheck;
 
 #[derive(Args)]
 pub struct SlamCmd {
@@ -168,6 +169,10 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         Some(path) => Some(results_bag(path)?),
         None => None,
     };
+    let mut depth_check = match &input {
+        Input::Folder(_) => DepthCheck::open(&cmd.sequence, &camera, &cmd.out)?,
+        Input::Bag(..) => None,
+    };
     let bar = progress(input.len().min(max_frames), "frames");
     let mut estimated: Vec<EstimatedPose> = Vec::new();
     let mut reports: Vec<FrameReport> = Vec::new();
@@ -251,6 +256,9 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
             // Flushed every frame: a killed run leaves whole rows up to its last frame.
             f.flush().with_context(|| out_err(path))?;
         }
+        if let Some(check) = &mut depth_check {
+            check.frame(&slam.map(), &r)?;
+        }
         if r.lost {
             bar.set_message("tracking lost");
         } else {
@@ -327,6 +335,7 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     println!("trajectory: {}", traj_path.display());
     let estimate: Vec<Pose> = estimated.iter().map(|e| e.pose).collect();
     let mut aligned_truth = None;
+    let mut fitted_scale = None;
     let arm = slam.filter().arm();
     if let Some((d, sigma)) = arm {
         println!("wheeled model: camera {d:.4} ± {sigma:.4} map units ahead of the turning axis");
@@ -353,9 +362,13 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                     e.matched
                 );
                 aligned_truth = Some(truth_in_estimate_frame(&estimate, truth));
+                fitted_scale = Some(e.scale);
             }
             Err(e) => eprintln!("warning: cannot evaluate against {}: {e}", path.display()),
         }
+    }
+    if let Some(check) = &depth_check {
+        println!("{}", check.summary(fitted_scale));
     }
     if let Some(path) = &cmd.plot {
         slam_figure(path, &estimated, aligned_truth.as_deref(), &map)?;

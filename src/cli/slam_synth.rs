@@ -43,6 +43,11 @@ pub struct SlamSynthCmd {
     /// overrides.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
+    /// Also write the true depth of every frame as the TUM RGB-D benchmark does (depth/, 16-bit
+    /// PNG at 5000 per metre, listed in depth.txt); `steernav slam` then measures the map's
+    /// depths against it.
+    #[arg(long)]
+    depth: bool,
 }
 
 pub fn run(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
@@ -86,6 +91,11 @@ pub fn run(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
     let bar = progress(seq.poses.len(), "frames");
     seq.write_tum_layout(&cmd.out, |_| bar.inc(1))?;
     bar.finish_and_clear();
+    if cmd.depth {
+        let bar = progress(seq.poses.len(), "depth images");
+        seq.write_tum_depth(&cmd.out, |_| bar.inc(1))?;
+        bar.finish_and_clear();
+    }
     println!(
         "{}: {} frames, {:.2} m path; run `steernav slam {}`",
         cmd.out.display(),

@@ -402,6 +402,47 @@ impl SyntheticSequence {
             .expect("size checked at construction")
     }
 
+    /// The true depth of frame `k` (the camera's z of the first surface seen through each
+    /// pixel, metres, row by row), at the frame's own pose: what an RGB-D sensor registered
+    /// to the colour camera would measure.
+    pub fn depth(&self, k: usize) -> Vec<f32> {
+        let pose = &self.poses[k];
+        let rot = rotation::matrix(&pose.orientation);
+        self.rays
+            .par_iter()
+            .map(|ray| {
+                // Rays are (x, y, 1): the z of a point t along the unit ray is t / |ray|.
+                let length = ray.norm();
+                (self.scene.depth(&pose.position, &(rot * ray / length)) / length) as f32
+            })
+            .collect()
+    }
+
+    /// Writes the true depth of every frame as the TUM RGB-D benchmark stores it:
+    /// depth/NNNNNN.png (16-bit, 5000 per metre, 0 where there is none or beyond 13.1 m) listed
+    /// in depth.txt with the colour frames' timestamps. `steernav slam` then measures the map's
+    /// depths against them.
+    pub fn write_tum_depth(&self, dir: &Path, mut progress: impl FnMut(usize)) -> Result<()> {
+        let io = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| Error::Io { path, source }
+        };
+        let depth_dir = dir.join("depth");
+        std::fs::create_dir_all(&depth_dir).map_err(io(&depth_dir))?;
+        let list_path = dir.join("depth.txt");
+        let mut list = std::fs::File::create(&list_path).map_err(io(&list_path))?;
+        writeln!(list, "# synthetic steernav depth\n# timestamp filename")
+            .map_err(io(&list_path))?;
+        let (w, h) = (self.config.width, self.config.height);
+        for k in 0..self.poses.len() {
+            let name = format!("depth/{k:06}.png");
+            super::depth::write_depth_png(&dir.join(&name), w, h, &self.depth(k))?;
+            writeln!(list, "{:.6} {}", self.poses[k].timestamp, name).map_err(io(&list_path))?;
+            progress(k);
+        }
+        Ok(())
+    }
+
     /// Writes the sequence in the TUM RGB-D layout: rgb/NNNNNN.png, rgb.txt,
     /// groundtruth.txt, and calib.toml for the camera.
     pub fn write_tum_layout(&self, dir: &Path, mut progress: impl FnMut(usize)) -> Result<()> {

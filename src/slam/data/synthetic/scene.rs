@@ -155,7 +155,6 @@ impl Scene {
     }
 
     /// Distance along `dir` (a unit vector) from `origin` to the first surface.
-    #[cfg(test)]
     pub(super) fn depth(&self, origin: &Vector3<f64>, dir: &Vector3<f64>) -> f64 {
         let (t, _) = self.wall_hit(origin, dir);
         self.solid_hit(origin, dir, t).map_or(t, |(t, _, _)| t)
