@@ -85,6 +85,10 @@ pub struct WheeledMotion {
     /// Prior standard deviation of the arm d, map units (its prior mean is 0: the camera on
     /// the turning axis). A map's unit is about half the median depth of the first view.
     pub arm_sigma: f64,
+    /// Landmarks met below the horizon while the vehicle turns in place start where their ray
+    /// meets the ground, the camera's height over it learnt from the map (docs/SLAM.md);
+    /// `false` when the camera cannot see the ground it drives on. Default true.
+    pub ground_prior: bool,
 }
 
 impl Default for WheeledMotion {
@@ -96,6 +100,7 @@ impl Default for WheeledMotion {
             vertical: 0.1,
             tilt_rate: 0.5,
             arm_sigma: 0.5,
+            ground_prior: true,
         }
     }
 }

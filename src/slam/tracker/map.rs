@@ -16,17 +16,8 @@ use crate::image::Frame;
 use crate::slam::association::{self, Template};
 use crate::slam::inverse_depth::{self, Parametrisation};
 use crate::slam::klt::{self, Pyramid};
-use crate::slam::motion::MotionModel;
 use crate::slam::rotation;
 use crate::slam::two_view;
-
-/// The wheeled model's turning prior applies while the camera translates less than this
-/// fraction of what its rotation sweeps at the scene's depth (|v| < k·|ω|/ρ): an in-place
-/// turn on its arm is about 0.05, a car in a bend about 1.
-const TURNING_TRANSLATION: f64 = 0.2;
-/// σ_ρ of the turning prior, as a fraction of its ρ (0.3 and 1.0 measured worse on the
-/// rover: docs/SLAM.md).
-const TURNING_PRIOR_SPREAD: f64 = 0.5;
 
 /// What the front end keeps about one landmark beside the filter.
 #[derive(Clone, Debug)]
@@ -85,14 +76,16 @@ impl Slam {
         let t_create = Instant::now();
         let want =
             (self.config.map.target_visible - visible.len()).min(self.config.map.max_new_per_frame);
-        let (rho, sigma) = self.turning_prior(&in_view).unwrap_or((
+        let turning = self.turning_prior(&in_view);
+        let initial = (
             self.config.filter.initial_inverse_depth,
             self.config.filter.inverse_depth_sigma,
-        ));
-        let priors = detection
-            .keypoints
-            .iter()
-            .map(|kp| (Vector2::new(kp.x as f64, kp.y as f64), rho, sigma));
+        );
+        let priors = detection.keypoints.iter().map(|kp| {
+            let z = Vector2::new(kp.x as f64, kp.y as f64);
+            let (rho, sigma) = turning.as_ref().map_or(initial, |t| t.at(&z));
+            (z, rho, sigma)
+        });
         let two_frames = views.filter(|_| self.config.map.two_frame_depth);
         let created = self.add_at_free_cells(frame, &visible, priors, want, |slam, z| {
             two_frames.and_then(|(previous, current)| slam.two_frame_prior(z, previous, current))
@@ -101,38 +94,6 @@ impl Slam {
             self.detect_after = self.frame_index + self.config.map.redetect_interval;
         }
         Ok((created, detection_ms, ms(t_create)))
-    }
-
-    /// The wheeled model's prior for landmarks met while the vehicle turns in place: the
-    /// median inverse distance of the converged landmarks in view (`in_view`, from
-    /// [`Slam::visible_landmarks`]; σ_ρ/ρ < 0.3, at least 5),
-    /// in the map's own unit, ± half of it. An in-place turn sweeps the camera over surfaces
-    /// at the room's depths with almost no baseline, and ρ₀ (a fixed 2 units) would drag the
-    /// unit towards itself. `None` (the caller keeps ρ₀) for the other models and when the
-    /// camera translates more than a fifth of what its rotation sweeps at that depth.
-    fn turning_prior(&self, in_view: &[(usize, Vector2<f64>)]) -> Option<(f64, f64)> {
-        if !matches!(self.filter.motion(), MotionModel::Wheeled(_)) {
-            return None;
-        }
-        let r = self.filter.position();
-        let mut inverse: Vec<f64> = in_view
-            .iter()
-            .filter_map(|&(slot, _)| {
-                let point = self.filter.landmark_point(slot)?;
-                let rho = 1.0 / (point - r).norm().max(1e-9);
-                let sigma = self.filter.rho_variance(slot).sqrt();
-                (sigma < 0.3 * rho).then_some(rho)
-            })
-            .collect();
-        if inverse.len() < 5 {
-            return None;
-        }
-        let mid = inverse.len() / 2;
-        let rho = *inverse.select_nth_unstable_by(mid, f64::total_cmp).1;
-        let x = self.filter.state();
-        let speed = nalgebra::Vector3::new(x[7], x[8], x[9]).norm();
-        let turn = nalgebra::Vector3::new(x[10], x[11], x[12]).norm();
-        (speed < TURNING_TRANSLATION * turn / rho).then_some((rho, TURNING_PRIOR_SPREAD * rho))
     }
 
     /// Starts landmarks at `priors` (pixel, ρ, σ_ρ), best first, at most one per grid cell

@@ -14,6 +14,7 @@ mod map;
 mod report;
 mod search;
 mod start;
+mod turning;
 mod update;
 
 use std::time::Instant;
