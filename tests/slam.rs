@@ -168,8 +168,9 @@ fn a_walk_through_furnished_rooms_keeps_tracking() {
 /// `slam-synth --motion rover` (seed 11, 24 s at 15 Hz): a wheeled robot whose camera sits
 /// 0.1 m ahead of its turning axis, driving legs and turning in place by up to half a turn.
 /// With the wheeled motion model (`[slam.motion.wheeled]`) no frame is lost, the ATE stays
-/// within 2% of the path and the scale within 10% (issue 25; measured 0.47% and 0.95, against
-/// 2.12% and 1.42 with the constant-velocity model: the suite's rover-11). The step's copy of
+/// within 2% of the path and the scale within 10% (issue 25; measured 0.35% and 1.06 with the
+/// ground prior, 0.47% and 0.95 without, against 2.12% and 1.42 with the constant-velocity
+/// model: the suite's rover-11). The step's copy of
 /// the previous position has left the state at the end of every frame.
 #[test]
 fn a_rover_turning_in_place_keeps_its_scale_with_the_wheeled_model() {
