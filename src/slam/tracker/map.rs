@@ -1,8 +1,8 @@
 //! Map management (section 2.6): landmarks created from steernav keypoints in image cells
 //! without tracked features (eq 13, at the prior depth, at the ground's or the scene's depth
-//! while a wheeled vehicle turns in place (`turning.rs`), or at a two-frame depth), inverse-depth landmarks converted to
-//! Euclidean by their linearity index, and landmarks deleted when they keep failing or the map
-//! is full.
+//! while a wheeled vehicle turns in place (`turning.rs`), or at a two-frame depth),
+//! inverse-depth landmarks converted to Euclidean by their linearity index, and landmarks
+//! deleted when they keep failing or the map is full.
 
 use std::time::Instant;
 
