@@ -65,20 +65,8 @@ impl DepthCheck {
             self.unread += 1;
             return Ok(());
         };
-        let depth = match DepthImage::load(image_path) {
-            Ok(d) if (d.width, d.height) == (self.camera.width, self.camera.height) => d,
-            Ok(d) => {
-                log::warn!(
-                    "{}: {}x{} is not the camera's {}x{}; frame left out of the depth check",
-                    image_path.display(),
-                    d.width,
-                    d.height,
-                    self.camera.width,
-                    self.camera.height
-                );
-                self.unread += 1;
-                return Ok(());
-            }
+        let depth = match DepthImage::load(image_path, (self.camera.width, self.camera.height)) {
+            Ok(d) => d,
             Err(e) => {
                 log::warn!("{e}; frame left out of the depth check");
                 self.unread += 1;

@@ -52,8 +52,23 @@ pub struct DepthImage {
 }
 
 impl DepthImage {
-    /// Reads a 16-bit grayscale PNG; any other kind of image is refused by name.
-    pub fn load(path: &Path) -> Result<Self> {
+    /// Reads a 16-bit grayscale PNG registered to a camera of `width`×`height`; another size is
+    /// refused from the file's header, before anything is decoded, and any other kind of
+    /// image by name.
+    pub fn load(path: &Path, (width, height): (u32, u32)) -> Result<Self> {
+        let header = image::image_dimensions(path).map_err(|e| Error::Decode {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+            source: None,
+        })?;
+        if header != (width, height) {
+            return Err(Error::ImageSize {
+                input: path.display().to_string(),
+                width: header.0,
+                height: header.1,
+                reason: format!("the camera's images are {width}x{height}"),
+            });
+        }
         let decoded = image::open(path).map_err(|e| Error::Decode {
             path: path.to_path_buf(),
             reason: e.to_string(),
@@ -202,7 +217,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.png");
         write_depth_png(&path, 3, 2, &[1.0, 2.5, 0.0, f32::NAN, 20.0, 0.00005]).unwrap();
-        let image = DepthImage::load(&path).unwrap();
+        let image = DepthImage::load(&path, (3, 2)).unwrap();
         assert_eq!((image.width, image.height), (3, 2));
         assert_eq!(image.at(&Vector2::new(0.0, 0.0)), Some(1.0));
         assert_eq!(image.at(&Vector2::new(1.2, -0.3)), Some(2.5));
@@ -212,8 +227,11 @@ mod tests {
         // An 8-bit image is refused, naming what a depth image must be.
         let grey = dir.path().join("g.png");
         image::GrayImage::new(2, 2).save(&grey).unwrap();
-        let e = DepthImage::load(&grey).unwrap_err().to_string();
+        let e = DepthImage::load(&grey, (2, 2)).unwrap_err().to_string();
         assert!(e.contains("g.png") && e.contains("16-bit"), "{e}");
+        // Another size than the camera's is refused from the header.
+        let e = DepthImage::load(&path, (640, 480)).unwrap_err().to_string();
+        assert!(e.contains("d.png") && e.contains("640x480"), "{e}");
     }
 
     #[test]
@@ -241,7 +259,7 @@ mod tests {
         let path = dir.path().join("d.png");
         // A wall 4 m in front of the camera, which looks along +z from the origin.
         write_depth_png(&path, 100, 100, &vec![4.0; 100 * 100]).unwrap();
-        let depth = DepthImage::load(&path).unwrap();
+        let depth = DepthImage::load(&path, (100, 100)).unwrap();
         let point = |x: f64, y: f64, z: f64| MapPoint {
             id: 0,
             parametrisation: Parametrisation::Euclidean,
