@@ -18,8 +18,8 @@ pub struct DepthCheck {
     camera: PinholeCamera,
     csv: csv::Writer<std::fs::File>,
     path: PathBuf,
-    /// (timestamp, median ratio) of every frame checked.
-    medians: Vec<(f64, f64)>,
+    /// The median ratio of every frame checked, in order.
+    medians: Vec<f64>,
     /// Frames whose depth image was missing or unreadable.
     unread: usize,
 }
@@ -77,7 +77,7 @@ impl DepthCheck {
         let Some([q1, median, q3]) = quartiles(&mut ratios) else {
             return Ok(());
         };
-        self.medians.push((r.timestamp, median));
+        self.medians.push(median);
         let row = [
             format!("{:.6}", r.timestamp),
             ratios.len().to_string(),
@@ -103,10 +103,7 @@ impl DepthCheck {
         }
         let thirds: Vec<f64> = (0..3)
             .map(|i| {
-                let mut part: Vec<f64> = self.medians[i * n / 3..(i + 1) * n / 3]
-                    .iter()
-                    .map(|m| m.1)
-                    .collect();
+                let mut part = self.medians[i * n / 3..(i + 1) * n / 3].to_vec();
                 quartiles(&mut part).map_or(f64::NAN, |q| q[1])
             })
             .collect();

@@ -70,7 +70,8 @@ impl Slam {
         let r = self.filter.position();
         let mut inverse: Vec<f64> = in_view
             .iter()
-            .filter_map(|&(slot, _)| self.converged_distance(slot, &r).map(|d| 1.0 / d))
+            .filter_map(|&(slot, _)| self.converged_point(slot, &r))
+            .map(|p| 1.0 / (p - r).norm().max(1e-9))
             .collect();
         if inverse.len() < 5 {
             return None;
@@ -93,11 +94,9 @@ impl Slam {
         let r = self.filter.position();
         let to_camera = rotation::matrix(&self.filter.orientation()).transpose();
         let mut below: Vec<f64> = (0..self.filter.slots().len())
-            .filter(|&slot| self.converged_distance(slot, &r).is_some())
-            .filter_map(|slot| {
-                let y = (to_camera * (self.filter.landmark_point(slot)? - r)).y;
-                (y > 0.0).then_some(y)
-            })
+            .filter_map(|slot| self.converged_point(slot, &r))
+            .map(|p| (to_camera * (p - r)).y)
+            .filter(|&y| y > 0.0)
             .collect();
         if below.len() < GROUND_MIN_LANDMARKS {
             return None;
@@ -106,11 +105,12 @@ impl Slam {
         Some(*below.select_nth_unstable_by(k, f64::total_cmp).1)
     }
 
-    /// The distance from `r` to the landmark in `slot`, when its depth has converged.
-    fn converged_distance(&self, slot: usize, r: &Vector3<f64>) -> Option<f64> {
-        let distance = (self.filter.landmark_point(slot)? - r).norm().max(1e-9);
+    /// The landmark in `slot`, when its depth seen from `r` has converged.
+    fn converged_point(&self, slot: usize, r: &Vector3<f64>) -> Option<Vector3<f64>> {
+        let point = self.filter.landmark_point(slot)?;
+        let distance = (point - r).norm().max(1e-9);
         let sigma = self.filter.rho_variance(slot).sqrt();
-        (sigma < CONVERGED / distance).then_some(distance)
+        (sigma < CONVERGED / distance).then_some(point)
     }
 }
 

@@ -422,61 +422,79 @@ impl SyntheticSequence {
     /// depth/NNNNNN.png (16-bit, 5000 per metre, 0 where there is none or beyond 13.1 m) listed
     /// in depth.txt with the colour frames' timestamps. `steernav slam` then measures the map's
     /// depths against them.
-    pub fn write_tum_depth(&self, dir: &Path, mut progress: impl FnMut(usize)) -> Result<()> {
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| Error::Io { path, source }
-        };
-        let depth_dir = dir.join("depth");
-        std::fs::create_dir_all(&depth_dir).map_err(io(&depth_dir))?;
-        let list_path = dir.join("depth.txt");
-        let mut list = std::fs::File::create(&list_path).map_err(io(&list_path))?;
-        writeln!(list, "# synthetic steernav depth\n# timestamp filename")
-            .map_err(io(&list_path))?;
+    pub fn write_tum_depth(&self, dir: &Path, progress: impl FnMut(usize)) -> Result<()> {
         let (w, h) = (self.config.width, self.config.height);
-        for k in 0..self.poses.len() {
-            let name = format!("depth/{k:06}.png");
-            super::depth::write_depth_png(&dir.join(&name), w, h, &self.depth(k))?;
-            writeln!(list, "{:.6} {}", self.poses[k].timestamp, name).map_err(io(&list_path))?;
-            progress(k);
-        }
-        Ok(())
+        self.write_listed(
+            dir,
+            "depth",
+            "synthetic steernav depth",
+            progress,
+            |k, path| super::depth::write_depth_png(path, w, h, &self.depth(k)),
+        )
     }
 
     /// Writes the sequence in the TUM RGB-D layout: rgb/NNNNNN.png, rgb.txt,
     /// groundtruth.txt, and calib.toml for the camera.
-    pub fn write_tum_layout(&self, dir: &Path, mut progress: impl FnMut(usize)) -> Result<()> {
+    pub fn write_tum_layout(&self, dir: &Path, progress: impl FnMut(usize)) -> Result<()> {
+        self.write_listed(
+            dir,
+            "rgb",
+            "synthetic steernav sequence",
+            progress,
+            |k, path| {
+                let frame = self.render(k);
+                image::save_buffer(
+                    path,
+                    &frame.rgb,
+                    frame.width,
+                    frame.height,
+                    image::ExtendedColorType::Rgb8,
+                )
+                .map_err(|e| Error::Io {
+                    path: path.to_path_buf(),
+                    source: std::io::Error::other(e.to_string()),
+                })
+            },
+        )?;
+        write_tum(&dir.join("groundtruth.txt"), &self.poses)?;
+        let calib = toml::to_string(&CalibrationOut {
+            camera: self.camera.clone(),
+        })
+        .map_err(|e| Error::config("camera", "?", e.to_string()))?;
+        let calib_path = dir.join("calib.toml");
+        std::fs::write(&calib_path, calib).map_err(|source| Error::Io {
+            path: calib_path.clone(),
+            source,
+        })
+    }
+
+    /// One image per frame, `folder`/NNNNNN.png written by `write`, listed with the frames'
+    /// timestamps in `folder`.txt as TUM RGB-D lists them. Frames are made and encoded a few at
+    /// a time in parallel (PNG encoding is serial within a frame), then listed in order.
+    fn write_listed(
+        &self,
+        dir: &Path,
+        folder: &str,
+        title: &str,
+        mut progress: impl FnMut(usize),
+        write: impl Fn(usize, &Path) -> Result<()> + Sync,
+    ) -> Result<()> {
         let io = |path: &Path| {
             let path = path.to_path_buf();
             move |source| Error::Io { path, source }
         };
-        let rgb_dir = dir.join("rgb");
-        std::fs::create_dir_all(&rgb_dir).map_err(io(&rgb_dir))?;
-        let list_path = dir.join("rgb.txt");
+        let images = dir.join(folder);
+        std::fs::create_dir_all(&images).map_err(io(&images))?;
+        let list_path = dir.join(format!("{folder}.txt"));
         let mut list = std::fs::File::create(&list_path).map_err(io(&list_path))?;
-        writeln!(list, "# synthetic steernav sequence\n# timestamp filename")
-            .map_err(io(&list_path))?;
-        // Frames are rendered and encoded a few at a time in parallel (PNG encoding is
-        // serial within a frame), then listed in order.
+        writeln!(list, "# {title}\n# timestamp filename").map_err(io(&list_path))?;
         let indices: Vec<usize> = (0..self.poses.len()).collect();
         for chunk in indices.chunks(2 * rayon::current_num_threads().max(1)) {
             let written: Vec<Result<String>> = chunk
                 .par_iter()
                 .map(|&k| {
-                    let frame = self.render(k);
-                    let name = format!("rgb/{k:06}.png");
-                    let path = dir.join(&name);
-                    image::save_buffer(
-                        &path,
-                        &frame.rgb,
-                        frame.width,
-                        frame.height,
-                        image::ExtendedColorType::Rgb8,
-                    )
-                    .map_err(|e| Error::Io {
-                        path: path.clone(),
-                        source: std::io::Error::other(e.to_string()),
-                    })?;
+                    let name = format!("{folder}/{k:06}.png");
+                    write(k, &dir.join(&name))?;
                     Ok(name)
                 })
                 .collect();
@@ -486,13 +504,6 @@ impl SyntheticSequence {
                 progress(k);
             }
         }
-        write_tum(&dir.join("groundtruth.txt"), &self.poses)?;
-        let calib = toml::to_string(&CalibrationOut {
-            camera: self.camera.clone(),
-        })
-        .map_err(|e| Error::config("camera", "?", e.to_string()))?;
-        let calib_path = dir.join("calib.toml");
-        std::fs::write(&calib_path, calib).map_err(io(&calib_path))?;
         Ok(())
     }
 
