@@ -168,10 +168,9 @@ fn a_walk_through_furnished_rooms_keeps_tracking() {
 /// `slam-synth --motion rover` (seed 11, 24 s at 15 Hz): a wheeled robot whose camera sits
 /// 0.1 m ahead of its turning axis, driving legs and turning in place by up to half a turn.
 /// With the wheeled motion model (`[slam.motion.wheeled]`) no frame is lost, the ATE stays
-/// within 2% of the path and the scale within 10% (issue 25; measured 0.35% and 1.06 with the
-/// ground prior, 0.47% and 0.95 without, against 2.12% and 1.42 with the constant-velocity
-/// model: the suite's rover-11). The step's copy of
-/// the previous position has left the state at the end of every frame.
+/// within 2% of the path and the scale within 10% (issue 25; measured 0.26% and 1.03, the
+/// suite's rover-11, against 2.12% and 1.42 with the constant-velocity model). The step's
+/// copy of the previous pose has left the state at the end of every frame.
 #[test]
 fn a_rover_turning_in_place_keeps_its_scale_with_the_wheeled_model() {
     let (slam, error) = rover_within(11, 2.0);
@@ -193,7 +192,7 @@ fn a_rover_turning_in_place_keeps_its_scale_with_the_wheeled_model() {
 /// Rover seed 3 turns in place where the scene is much nearer or farther than where it looked:
 /// the landmarks met in its turns start, with the wheeled model's ground prior, where their
 /// ray meets the ground (its height learnt from the map), and the map keeps its unit through
-/// the turns (issue 25: 1.94% and a drift of 0.93 measured; 3.95% and 1.25 with
+/// the turns (issue 25: 1.56% and a drift of 1.08 measured; 4.00% and 1.14 with
 /// `ground_prior = false`, where the next leg took the unit of landmarks born too near).
 #[test]
 fn a_rover_keeps_its_unit_through_turns_with_the_ground_prior() {

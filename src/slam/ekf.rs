@@ -60,8 +60,8 @@ pub struct Filter {
     /// Pixel noise standard deviation (R = σ² I per observation).
     pixel_sigma: f64,
     next_id: u64,
-    /// The wheeled model's open step: where the copy of the previous frame's position sits
-    /// (the last 3 entries of x) and the step's duration, until it is closed
+    /// The wheeled model's open step: where the copy of the previous frame's pose sits
+    /// (the last `motion::STEP_COPY` entries of x) and the step's duration, until it is closed
     /// (`slam::wheeled`).
     pub(in crate::slam) step: Option<(usize, f64)>,
 }

@@ -57,7 +57,8 @@ impl Default for MotionModel {
     }
 }
 
-/// `[slam.motion.wheeled]`: the constant-velocity model with a wheeled vehicle's constraints.
+/// `[slam.motion.wheeled]`: a vehicle's constant velocity, held in its own frame so that it
+/// turns with the vehicle ([`predict`]), with the vehicle's constraints.
 /// The camera's velocity u = R(q)ᵀ v and angular velocity ω in its own frame obey, within the
 /// standard deviations below (map units as the velocities'):
 /// u_x = d·ω_y (no side slip: the only sideways motion is the arm's swing in a turn),
@@ -176,43 +177,72 @@ pub fn constraint(
     Some((value, h, sigma))
 }
 
-/// The wheeled model's constraints on one step's displacement, for a state x whose last
-/// entries from `origin` hold the previous frame's position r₀: with Δ = R(q)ᵀ (r − r₀),
-/// Δ_x = d·ω_y·dt and Δ_y = 0. Returns the values, the entries of x they depend on and the
-/// Jacobian over those entries. With `learn_arm` false the arm is held (its column is zero):
-/// outside a clear turn the product d·ω_y says nothing of d, but its linearisation about a
-/// noisy ω_y would let the filter believe it learns d on every straight step.
+/// Entries of the state that the wheeled model's open step copies: the previous frame's
+/// position r₀ and orientation q₀ (stochastic cloning).
+pub const STEP_COPY: usize = 7;
+
+/// The step's residuals of [`step_constraint`]: its displacement and the arm's swing, in the
+/// frame midway between the step's two orientations.
+fn step_residual(r: &Vector3<f64>, q: &Quat, r0: &Vector3<f64>, q0: &Quat, arm: f64) -> [f64; 2] {
+    let (q, q0) = (q.normalize(), q0.normalize());
+    let q = if q.dot(&q0) < 0.0 { -q } else { q };
+    // The slerp midpoint of q₀ and q.
+    let mid = rotation::matrix(&(q0 + q).normalize()).transpose();
+    let delta = mid * (r - r0);
+    let swing = mid * ((rotation::matrix(&q) - rotation::matrix(&q0)) * Vector3::z());
+    [delta.x - arm * swing.x, delta.y]
+}
+
+/// The wheeled model's constraints on one step's displacement, for a state x whose entries
+/// from `origin` hold the previous frame's position r₀ and orientation q₀ ([`STEP_COPY`]).
+/// The vehicle's turning axis moves only along its heading, and over a step of constant turn
+/// rate its chord lies along the heading midway through the step; the camera rides on the arm
+/// d ahead of the axis. So in the midway frame R_m (the slerp midpoint of q₀ and q) the step's
+/// displacement is the arm's swing, sideways and vertically:
+/// R_mᵀ(r − r₀) = d·R_mᵀ(R(q) − R(q₀))·e_z on x and y. This holds on a car's bend as in an
+/// in-place turn (the end frame sees a car's chord turned by half the step's rotation), and
+/// takes the step's rotation from the orientations the measurements fixed, not from the
+/// angular velocity the motion model holds. Returns the values, the entries of x they depend
+/// on (r, q, d, r₀, q₀) and the Jacobian over those entries (central differences of a smooth
+/// function of 15 entries). With `learn_arm` false the arm is held (its column is zero):
+/// outside a clear turn the swing says nothing of d, but its linearisation about a noisy turn
+/// would let the filter believe it learns d on every straight step.
 pub fn step_constraint(
     x: &DVector<f64>,
     origin: usize,
-    dt: f64,
     learn_arm: bool,
 ) -> (DVector<f64>, Vec<usize>, DMatrix<f64>) {
-    let r = Vector3::new(x[0], x[1], x[2]);
-    let q = Quat::new(x[3], x[4], x[5], x[6]);
-    let r0 = Vector3::new(x[origin], x[origin + 1], x[origin + 2]);
-    let (omega_y, arm) = (x[11], x[ARM]);
-    let rt = rotation::matrix(&q).transpose();
-    let delta = rt * (r - r0);
-    let d_dq = rotation::d_rotate_transpose_dq(&q, &(r - r0));
-    let value = DVector::from_vec(vec![delta.x - arm * omega_y * dt, delta.y]);
-    // Columns: r (0..3), q (3..7), ω_y, d, r₀.
-    let columns: Vec<usize> = (0..7).chain([11, ARM]).chain(origin..origin + 3).collect();
+    let columns: Vec<usize> = (0..7)
+        .chain([ARM])
+        .chain(origin..origin + STEP_COPY)
+        .collect();
+    let at = |x: &DVector<f64>| {
+        step_residual(
+            &Vector3::new(x[0], x[1], x[2]),
+            &Quat::new(x[3], x[4], x[5], x[6]),
+            &Vector3::new(x[origin], x[origin + 1], x[origin + 2]),
+            &Quat::new(x[origin + 3], x[origin + 4], x[origin + 5], x[origin + 6]),
+            x[ARM],
+        )
+    };
+    let value = at(x);
     let mut h = DMatrix::<f64>::zeros(2, columns.len());
-    for row in 0..2 {
-        for k in 0..3 {
-            h[(row, k)] = rt[(row, k)];
-            h[(row, 9 + k)] = -rt[(row, k)];
+    let mut probe = x.clone();
+    for (k, &c) in columns.iter().enumerate() {
+        if c == ARM && !learn_arm {
+            continue;
         }
-        for k in 0..4 {
-            h[(row, 3 + k)] = d_dq[(row, k)];
+        let e = 1e-6 * x[c].abs().max(1.0);
+        probe[c] = x[c] + e;
+        let up = at(&probe);
+        probe[c] = x[c] - e;
+        let down = at(&probe);
+        probe[c] = x[c];
+        for row in 0..2 {
+            h[(row, k)] = (up[row] - down[row]) / (2.0 * e);
         }
     }
-    h[(0, 7)] = -arm * dt;
-    if learn_arm {
-        h[(0, 8)] = -omega_y * dt;
-    }
-    (value, columns, h)
+    (DVector::from_row_slice(&value), columns, h)
 }
 
 /// One relative motion measured by odometry, in the previous camera frame.
@@ -237,15 +267,27 @@ pub fn predict(
     let mut next = camera.clone();
     let mut f = DMatrix::<f64>::identity(n, n);
     match *model {
-        MotionModel::ConstantVelocity {
-            linear_acceleration,
-            angular_acceleration,
-        }
-        | MotionModel::Wheeled(WheeledMotion {
+        MotionModel::Wheeled(WheeledMotion {
             linear_acceleration,
             angular_acceleration,
             ..
         }) => {
+            let next = wheeled_step(camera, dt);
+            let f = central_jacobian(camera, |c| wheeled_step(c, dt));
+            // Impulses V = a·dt, Ω = α·dt enter like v and ω: G = F[:, v, ω].
+            let g = f.columns(7, 6).into_owned();
+            let mut noise = DMatrix::<f64>::zeros(6, 6);
+            for i in 0..3 {
+                noise[(i, i)] = (linear_acceleration * dt).powi(2);
+                noise[(i + 3, i + 3)] = (angular_acceleration * dt).powi(2);
+            }
+            let qn = &g * noise * g.transpose();
+            (next, f, qn)
+        }
+        MotionModel::ConstantVelocity {
+            linear_acceleration,
+            angular_acceleration,
+        } => {
             // The wheeled model's arm is a constant: F and Q are the identity and zero there.
             let v = Vector3::new(camera[7], camera[8], camera[9]);
             let w = Vector3::new(camera[10], camera[11], camera[12]);
@@ -313,6 +355,46 @@ pub fn predict(
             (next, f, qn)
         }
     }
+}
+
+/// The wheeled model's prediction: a vehicle keeps its velocity in its own frame, u = R(q)ᵀv,
+/// and turns at a constant ω, so its velocity turns with it and a step's chord runs along
+/// the heading midway through the step (the world-frame constant velocity of a hand-held
+/// camera would send it along the heading it started the step with, sideways to the arc a
+/// vehicle drives). The arm is a constant.
+fn wheeled_step(camera: &DVector<f64>, dt: f64) -> DVector<f64> {
+    let r = Vector3::new(camera[0], camera[1], camera[2]);
+    let q = Quat::new(camera[3], camera[4], camera[5], camera[6]);
+    let v = Vector3::new(camera[7], camera[8], camera[9]);
+    let w = Vector3::new(camera[10], camera[11], camera[12]);
+    let u = rotation::matrix(&q).transpose() * v;
+    let midway = rotation::multiply(&q, &rotation::from_rotation_vector(&(w * (0.5 * dt))));
+    let q_next = rotation::multiply(&q, &rotation::from_rotation_vector(&(w * dt)));
+    let mut next = camera.clone();
+    next.fixed_rows_mut::<3>(0)
+        .copy_from(&(r + rotation::matrix(&midway) * u * dt));
+    next.fixed_rows_mut::<4>(3).copy_from(&q_next);
+    next.fixed_rows_mut::<3>(7)
+        .copy_from(&(rotation::matrix(&q_next) * u));
+    next
+}
+
+/// The Jacobian of `f` at `x` by central differences (steps of 10⁻⁶ relative to each entry,
+/// at least 10⁻⁶): for the smooth, cheap functions of a few entries the wheeled model adds.
+fn central_jacobian(x: &DVector<f64>, f: impl Fn(&DVector<f64>) -> DVector<f64>) -> DMatrix<f64> {
+    let rows = f(x).len();
+    let mut j = DMatrix::<f64>::zeros(rows, x.len());
+    let mut probe = x.clone();
+    for c in 0..x.len() {
+        let e = 1e-6 * x[c].abs().max(1.0);
+        probe[c] = x[c] + e;
+        let up = f(&probe);
+        probe[c] = x[c] - e;
+        let down = f(&probe);
+        probe[c] = x[c];
+        j.set_column(c, &((up - down) / (2.0 * e)));
+    }
+    j
 }
 
 /// The odometry step between two absolute poses (r, q) of the odometry's own frame.
@@ -385,21 +467,24 @@ mod tests {
             assert!((fd - h.column(c)).amax() < 1e-6, "column {c}");
         }
         assert_eq!(h.column(ARM).amax(), 0.0);
-        // The step constraint, with the previous position appended at 14..17.
-        let mut x = x.clone().resize_vertically(17, 0.0);
+        // The step constraint, with the previous pose appended at 14..21.
+        let mut x = x.clone().resize_vertically(21, 0.0);
         x.fixed_rows_mut::<3>(14)
             .copy_from_slice(&[-0.05, 0.02, -0.1]);
-        let (_, columns, h) = step_constraint(&x, 14, 0.1, true);
+        x.fixed_rows_mut::<4>(17)
+            .copy_from(&rotation::from_rotation_vector(&Vector3::new(
+                0.18, -0.15, 0.31,
+            )));
+        let (_, columns, h) = step_constraint(&x, 14, true);
         for (k, &c) in columns.iter().enumerate() {
             let (mut a, mut b) = (x.clone(), x.clone());
-            a[c] += 1e-6;
-            b[c] -= 1e-6;
-            let fd = (step_constraint(&a, 14, 0.1, true).0 - step_constraint(&b, 14, 0.1, true).0)
-                / 2e-6;
+            a[c] += 1e-5;
+            b[c] -= 1e-5;
+            let fd = (step_constraint(&a, 14, true).0 - step_constraint(&b, 14, true).0) / 2e-5;
             assert!((fd - h.column(k)).amax() < 1e-6, "column {c}");
         }
-        let (_, _, held) = step_constraint(&x, 14, 0.1, false);
-        assert_eq!(held.column(8).amax(), 0.0, "the arm is held outside a turn");
+        let (_, _, held) = step_constraint(&x, 14, false);
+        assert_eq!(held.column(7).amax(), 0.0, "the arm is held outside a turn");
         let x = x.rows(0, 14).into_owned();
         assert!(constraint(&MotionModel::default(), &x.rows(0, 13).into_owned()).is_none());
     }
@@ -425,6 +510,76 @@ mod tests {
         x[ARM] = 0.0;
         let (value, _, _) = constraint(&MotionModel::wheeled(), &x).unwrap();
         assert!((value[0].abs() - rate * arm).abs() < 1e-12, "{value}");
+    }
+
+    #[test]
+    fn a_camera_on_a_turning_vehicle_obeys_the_step_constraint_on_a_bend_and_in_place() {
+        // The vehicle's axis drives along a circle (or turns in place, speed 0) about the
+        // world's vertical, the camera 0.3 units ahead of it; a step of 0.1 s at 0.8 rad/s.
+        let (arm, rate, dt) = (0.3, 0.8, 0.1);
+        for speed in [0.0, 2.0] {
+            let pose = |t: f64| {
+                let heading = 0.4 + rate * t;
+                // Yawing about −y; the axis moves along the heading, on a circle of
+                // radius speed / rate.
+                let q = rotation::from_rotation_vector(&Vector3::new(0.0, -heading, 0.0));
+                let radius = speed / rate;
+                let centre = Vector3::new(1.0, 0.5, -2.0);
+                let axis = centre + radius * Vector3::new(heading.cos(), 0.0, heading.sin())
+                    - radius * Vector3::new(0.4f64.cos(), 0.0, 0.4f64.sin());
+                (axis + rotation::matrix(&q) * Vector3::new(0.0, 0.0, arm), q)
+            };
+            let ((r0, q0), (r1, q1)) = (pose(0.0), pose(dt));
+            let mut x = DVector::zeros(21);
+            x.fixed_rows_mut::<3>(0).copy_from(&r1);
+            x.fixed_rows_mut::<4>(3).copy_from(&q1);
+            x[ARM] = arm;
+            x.fixed_rows_mut::<3>(14).copy_from(&r0);
+            x.fixed_rows_mut::<4>(17).copy_from(&q0);
+            let (value, _, _) = step_constraint(&x, 14, true);
+            assert!(value.amax() < 1e-12, "speed {speed}: {value}");
+            // Seen from the step's end, a car's chord is turned by half the step's rotation:
+            // there it is not the arm's swing, −d·sin(ω·dt) (ω about the camera's y is −rate),
+            // but off by the speed's 0.2 units times half the 0.08 rad turned.
+            let end = rotation::matrix(&q1).transpose() * (r1 - r0);
+            let off = end.x + arm * (rate * dt).sin();
+            assert!(speed == 0.0 || (off - 0.2 * 0.04).abs() < 1e-3, "{end}");
+        }
+    }
+
+    #[test]
+    fn the_wheeled_prediction_follows_a_vehicle_around_its_bend() {
+        // A car at 2 units/s on a bend of 0.8 rad/s, the camera on its turning axis, from a
+        // state whose velocity and turn rate are the true ones: the wheeled prediction lands
+        // on the arc; the hand-held model's goes on along the first heading.
+        let (speed, rate, dt) = (2.0, 0.8, 0.1);
+        let radius = speed / rate;
+        let pose = |t: f64| {
+            let heading = rate * t;
+            let r = radius * Vector3::new(heading.cos() - 1.0, 0.0, heading.sin());
+            (
+                r,
+                rotation::from_rotation_vector(&Vector3::new(0.0, -heading, 0.0)),
+            )
+        };
+        let ((r0, q0), (r1, q1)) = (pose(0.0), pose(dt));
+        let mut x = DVector::zeros(14);
+        x.fixed_rows_mut::<3>(0).copy_from(&r0);
+        x.fixed_rows_mut::<4>(3).copy_from(&q0);
+        x.fixed_rows_mut::<3>(7)
+            .copy_from(&(rotation::matrix(&q0) * Vector3::z() * speed));
+        x[11] = -rate;
+        let (next, _, _) = predict(&MotionModel::wheeled(), &x, dt, None);
+        let miss = (next.fixed_rows::<3>(0) - r1).norm();
+        assert!(miss < 1e-4, "{miss}");
+        assert!((next.fixed_rows::<4>(3) - q1).amax() < 1e-12);
+        let (straight, _, _) = predict(
+            &MotionModel::default(),
+            &x.rows(0, 13).into_owned(),
+            dt,
+            None,
+        );
+        assert!((straight.fixed_rows::<3>(0) - r1).norm() > 0.25 * speed * dt * rate * dt);
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The wheeled motion model's side of the filter (`MotionModel::Wheeled`, eqs 15–16 with the
 //! vehicle's non-holonomic constraints as pseudo-measurements, taken by eqs 22–24): the
 //! constraints on the predicted velocity, and the constraints on each step's displacement by
-//! stochastic cloning, where the previous position is copied into the state before the
+//! stochastic cloning, where the previous pose is copied into the state before the
 //! prediction and leaves it once the frame's measurements are in. The constraints themselves
 //! and their Jacobians are in [`super::motion`].
 
@@ -64,32 +64,33 @@ impl Filter {
         }
     }
 
-    /// Opens a step of the wheeled model before a prediction: the current position is copied
-    /// to the end of the state (x and P), so that the step's displacement can be constrained
-    /// once the frame's measurements have moved the pose (stochastic cloning).
+    /// Opens a step of the wheeled model before a prediction: the current pose (position and
+    /// orientation) is copied to the end of the state (x and P), so that the step's
+    /// displacement can be constrained once the frame's measurements have moved the pose
+    /// (stochastic cloning).
     pub(super) fn open_step(&mut self, dt: f64) {
         self.close_step();
         if !matches!(self.motion, MotionModel::Wheeled(_)) {
             return;
         }
-        let n = self.dim();
-        let mut x = DVector::zeros(n + 3);
+        let (n, k) = (self.dim(), motion::STEP_COPY);
+        let mut x = DVector::zeros(n + k);
         x.rows_mut(0, n).copy_from(&self.x);
-        x.rows_mut(n, 3).copy_from(&self.x.rows(0, 3));
-        let mut p = DMatrix::zeros(n + 3, n + 3);
+        x.rows_mut(n, k).copy_from(&self.x.rows(0, k));
+        let mut p = DMatrix::zeros(n + k, n + k);
         p.view_mut((0, 0), (n, n)).copy_from(&self.p);
-        p.view_mut((n, 0), (3, n)).copy_from(&self.p.rows(0, 3));
-        p.view_mut((0, n), (n, 3)).copy_from(&self.p.columns(0, 3));
-        p.view_mut((n, n), (3, 3))
-            .copy_from(&self.p.view((0, 0), (3, 3)));
+        p.view_mut((n, 0), (k, n)).copy_from(&self.p.rows(0, k));
+        p.view_mut((0, n), (n, k)).copy_from(&self.p.columns(0, k));
+        p.view_mut((n, n), (k, k))
+            .copy_from(&self.p.view((0, 0), (k, k)));
         self.x = x;
         self.p = p;
         self.step = Some((n, dt));
     }
 
-    /// Closes the wheeled model's open step: its displacement, in the camera's frame, obeys
-    /// the vehicle's constraints (sideways only by the arm's swing d·ω_y·dt, nothing
-    /// vertically), then the copy of the previous position leaves the state. The velocity
+    /// Closes the wheeled model's open step: its displacement, in the frame midway through
+    /// the step, is the arm's swing (`motion::step_constraint`), then the copy of the
+    /// previous pose leaves the state. The velocity
     /// constraints tie the prediction; this ties what the measurements did to the pose.
     /// Called once the frame's updates are in; a no-op when no step is open.
     pub(in crate::slam) fn close_step(&mut self) {
@@ -99,7 +100,7 @@ impl Filter {
         if let MotionModel::Wheeled(w) = &self.motion {
             // The arm is learnt only in a clear turn (see `motion::step_constraint`).
             let learn_arm = self.x[11].abs() > ARM_EVIDENCE * self.p[(11, 11)].sqrt();
-            let (value, columns, h) = motion::step_constraint(&self.x, origin, dt, learn_arm);
+            let (value, columns, h) = motion::step_constraint(&self.x, origin, learn_arm);
             let sigma = DVector::from_vec(vec![w.slip * dt, w.vertical * dt]);
             self.take_constraint(&value, &columns, &h, &sigma);
         }
@@ -107,14 +108,15 @@ impl Filter {
     }
 
     /// Drops the open step without its constraint: relocalisation re-measures the pose, to
-    /// which the copy of the previous position is as unrelated as the map.
+    /// which the copy of the previous pose is as unrelated as the map.
     pub(super) fn discard_step(&mut self) {
         if let Some((origin, _)) = self.step.take() {
             self.drop_step_copy(origin);
         }
     }
 
-    /// Removes the copy of the previous position (the last 3 entries) from x and P.
+    /// Removes the copy of the previous pose (the last `motion::STEP_COPY` entries) from x
+    /// and P.
     fn drop_step_copy(&mut self, origin: usize) {
         self.x = self.x.rows(0, origin).into_owned();
         self.p = self.p.view((0, 0), (origin, origin)).into_owned();
