@@ -259,6 +259,14 @@ struct BandScratch {
     q: Vec<f32>,
 }
 
+thread_local! {
+    /// Each worker's band buffers, kept from band to band and frame to frame: sized once for
+    /// the largest band, they are overwritten, never zeroed again (fresh ones per band cost
+    /// the SLAM loop 5% of its time in memset). Nothing inside a band calls into rayon, so a
+    /// worker never re-enters it.
+    static SCRATCH: std::cell::RefCell<BandScratch> = std::cell::RefCell::new(BandScratch::default());
+}
+
 /// Grid rows per parallel band: enough rows that the halo the window needs above and below
 /// (its radius) is a modest overhead, few enough that a band's planes stay in L2.
 const BAND_PIXEL_ROWS: usize = 48;
@@ -298,87 +306,90 @@ fn scale_responses(
     assert!(grid_rows.end <= gh && out.len() >= plane * terms.len());
     (0..grid_rows.len().div_ceil(band_rows))
         .into_par_iter()
-        .map_init(BandScratch::default, |b, band| {
-            let mut peak = 0.0f32;
-            let out_ptr = &out_ptr;
-            // Grid rows [j0, j1) of output need grid rows [jl, jh] of products.
-            let j0 = grid_rows.start + band * band_rows;
-            let j1 = (j0 + band_rows).min(grid_rows.end);
-            let jl = j0.saturating_sub(rw);
-            let jh = (j1 - 1 + rw).min(gh - 1);
-            let rows = jh - jl + 1;
-            b.column.resize(width, 0.0);
-            b.derivatives.resize(count * rows * gw, 0.0);
-            b.products.resize(products * rows * gw, 0.0);
-            b.blurred_row.resize(gw, 0.0);
-            b.q.resize(products * gw, 0.0);
-            // Derivative planes D_k at the grid's samples (eqs 5–6 through the steerable basis).
-            for (kk, filter) in scale.derivatives.iter().enumerate() {
-                for jj in jl..=jh {
-                    column_at(
-                        image_row,
-                        (jj * step) as isize,
-                        &filter.column,
-                        &mut b.column,
+        .map(|band| {
+            SCRATCH.with(|cell| {
+                let b = &mut *cell.borrow_mut();
+                let mut peak = 0.0f32;
+                let out_ptr = &out_ptr;
+                // Grid rows [j0, j1) of output need grid rows [jl, jh] of products.
+                let j0 = grid_rows.start + band * band_rows;
+                let j1 = (j0 + band_rows).min(grid_rows.end);
+                let jl = j0.saturating_sub(rw);
+                let jh = (j1 - 1 + rw).min(gh - 1);
+                let rows = jh - jl + 1;
+                b.column.resize(width, 0.0);
+                b.derivatives.resize(count * rows * gw, 0.0);
+                b.products.resize(products * rows * gw, 0.0);
+                b.blurred_row.resize(gw, 0.0);
+                b.q.resize(products * gw, 0.0);
+                // Derivative planes D_k at the grid's samples (eqs 5–6 through the steerable basis).
+                for (kk, filter) in scale.derivatives.iter().enumerate() {
+                    for jj in jl..=jh {
+                        column_at(
+                            image_row,
+                            (jj * step) as isize,
+                            &filter.column,
+                            &mut b.column,
+                        );
+                        let o = (kk * rows + jj - jl) * gw;
+                        row_at(
+                            &b.column,
+                            &filter.row,
+                            step,
+                            &mut b.padded,
+                            &mut b.derivatives[o..o + gw],
+                        );
+                    }
+                }
+                // Products D_j D_k (the integrands of eq 7).
+                for (p, &(a, c)) in plan.products.iter().enumerate() {
+                    let (da, dc) = (
+                        &b.derivatives[a * rows * gw..(a + 1) * rows * gw],
+                        &b.derivatives[c * rows * gw..(c + 1) * rows * gw],
                     );
-                    let o = (kk * rows + jj - jl) * gw;
-                    row_at(
-                        &b.column,
-                        &filter.row,
-                        step,
-                        &mut b.padded,
-                        &mut b.derivatives[o..o + gw],
-                    );
+                    for ((o, &x), &y) in b.products[p * rows * gw..(p + 1) * rows * gw]
+                        .iter_mut()
+                        .zip(da)
+                        .zip(dc)
+                    {
+                        *o = x * y;
+                    }
                 }
-            }
-            // Products D_j D_k (the integrands of eq 7).
-            for (p, &(a, c)) in plan.products.iter().enumerate() {
-                let (da, dc) = (
-                    &b.derivatives[a * rows * gw..(a + 1) * rows * gw],
-                    &b.derivatives[c * rows * gw..(c + 1) * rows * gw],
-                );
-                for ((o, &x), &y) in b.products[p * rows * gw..(p + 1) * rows * gw]
-                    .iter_mut()
-                    .zip(da)
-                    .zip(dc)
-                {
-                    *o = x * y;
+                for j in j0..j1 {
+                    // Window blur of every product at grid row j (columns, then rows).
+                    for p in 0..products {
+                        let band_plane = &b.products[p * rows * gw..(p + 1) * rows * gw];
+                        let row = |jj: isize| {
+                            let r = jj.clamp(0, gh as isize - 1) as usize - jl;
+                            &band_plane[r * gw..(r + 1) * gw]
+                        };
+                        column_at(row, j as isize, &scale.window, &mut b.blurred_row);
+                        row_at(
+                            &b.blurred_row,
+                            &scale.window,
+                            1,
+                            &mut b.padded,
+                            &mut b.q[p * gw..(p + 1) * gw],
+                        );
+                    }
+                    // R = det M − k tr² M for every orientation (eq 8).
+                    for (t, entries) in terms.iter().enumerate() {
+                        // SAFETY: band `band` writes only grid rows [j0, j1) of each orientation plane,
+                        // which no other band touches, and `out` outlives the parallel loop.
+                        let r = unsafe {
+                            std::slice::from_raw_parts_mut(
+                                out_ptr.0.add(t * plane + (j - grid_rows.start) * gw),
+                                gw,
+                            )
+                        };
+                        tensor_responses(&b.q, entries, r, |xx, xy, yy| {
+                            harris_response(xx, xy, yy, k)
+                        });
+                        peak = max_or(r, peak);
+                    }
                 }
-            }
-            for j in j0..j1 {
-                // Window blur of every product at grid row j (columns, then rows).
-                for p in 0..products {
-                    let band_plane = &b.products[p * rows * gw..(p + 1) * rows * gw];
-                    let row = |jj: isize| {
-                        let r = jj.clamp(0, gh as isize - 1) as usize - jl;
-                        &band_plane[r * gw..(r + 1) * gw]
-                    };
-                    column_at(row, j as isize, &scale.window, &mut b.blurred_row);
-                    row_at(
-                        &b.blurred_row,
-                        &scale.window,
-                        1,
-                        &mut b.padded,
-                        &mut b.q[p * gw..(p + 1) * gw],
-                    );
-                }
-                // R = det M − k tr² M for every orientation (eq 8).
-                for (t, entries) in terms.iter().enumerate() {
-                    // SAFETY: band `band` writes only grid rows [j0, j1) of each orientation plane,
-                    // which no other band touches, and `out` outlives the parallel loop.
-                    let r = unsafe {
-                        std::slice::from_raw_parts_mut(
-                            out_ptr.0.add(t * plane + (j - grid_rows.start) * gw),
-                            gw,
-                        )
-                    };
-                    tensor_responses(&b.q, entries, r, |xx, xy, yy| {
-                        harris_response(xx, xy, yy, k)
-                    });
-                    peak = max_or(r, peak);
-                }
-            }
-            peak
+                peak
+            })
         })
         .reduce(|| 0.0, f32::max)
 }
