@@ -18,6 +18,7 @@ pub mod data;
 pub(crate) mod ekf;
 pub(crate) mod inverse_depth;
 pub(crate) mod klt;
+mod landmarks;
 pub(crate) mod motion;
 pub mod refine;
 pub(crate) mod rotation;
