@@ -181,8 +181,8 @@ pub fn constraint(
 /// position r₀ and orientation q₀ (stochastic cloning).
 pub const STEP_COPY: usize = 7;
 
-/// The step's residuals of [`step_constraint`]: its displacement and the arm's swing, in the
-/// frame midway between the step's two orientations.
+/// The step's residuals of [`step_constraint`], in the frame midway between the step's two
+/// orientations: the sideways displacement less the arm's swing, and the vertical one.
 fn step_residual(r: &Vector3<f64>, q: &Quat, r0: &Vector3<f64>, q0: &Quat, arm: f64) -> [f64; 2] {
     let (q, q0) = (q.normalize(), q0.normalize());
     let q = if q.dot(&q0) < 0.0 { -q } else { q };
@@ -198,15 +198,15 @@ fn step_residual(r: &Vector3<f64>, q: &Quat, r0: &Vector3<f64>, q0: &Quat, arm: 
 /// The vehicle's turning axis moves only along its heading, and over a step of constant turn
 /// rate its chord lies along the heading midway through the step; the camera rides on the arm
 /// d ahead of the axis. So in the midway frame R_m (the slerp midpoint of q₀ and q) the step's
-/// displacement is the arm's swing, sideways and vertically:
-/// R_mᵀ(r − r₀) = d·R_mᵀ(R(q) − R(q₀))·e_z on x and y. This holds on a car's bend as in an
-/// in-place turn (the end frame sees a car's chord turned by half the step's rotation), and
-/// takes the step's rotation from the orientations the measurements fixed, not from the
-/// angular velocity the motion model holds. Returns the values, the entries of x they depend
-/// on (r, q, d, r₀, q₀) and the Jacobian over those entries (central differences of a smooth
-/// function of 15 entries). With `learn_arm` false the arm is held (its column is zero):
-/// outside a clear turn the swing says nothing of d, but its linearisation about a noisy turn
-/// would let the filter believe it learns d on every straight step.
+/// sideways displacement is the arm's swing, R_mᵀ(r − r₀)·e_x = d·R_mᵀ(R(q) − R(q₀))·e_z·e_x,
+/// and its vertical displacement none. This holds on a car's bend as in an in-place turn (the
+/// end frame sees a car's chord turned by half the step's rotation), and takes the step's
+/// rotation from the orientations the measurements fixed, not from the angular velocity the
+/// motion model holds. Returns the values, the entries of x they depend on (r, q, d, r₀, q₀)
+/// and the Jacobian over those entries ([`central_jacobian`]). With `learn_arm` false the arm
+/// is held (its column is zero): outside a clear turn the swing says nothing of d, but its
+/// linearisation about a noisy turn would let the filter believe it learns d on every
+/// straight step.
 pub fn step_constraint(
     x: &DVector<f64>,
     origin: usize,
@@ -216,33 +216,23 @@ pub fn step_constraint(
         .chain([ARM])
         .chain(origin..origin + STEP_COPY)
         .collect();
-    let at = |x: &DVector<f64>| {
-        step_residual(
-            &Vector3::new(x[0], x[1], x[2]),
-            &Quat::new(x[3], x[4], x[5], x[6]),
-            &Vector3::new(x[origin], x[origin + 1], x[origin + 2]),
-            &Quat::new(x[origin + 3], x[origin + 4], x[origin + 5], x[origin + 6]),
-            x[ARM],
-        )
+    // The entries in `columns`' order: r, q, d, r₀, q₀.
+    let residual = |e: &DVector<f64>| {
+        let [sideways, vertical] = step_residual(
+            &Vector3::new(e[0], e[1], e[2]),
+            &Quat::new(e[3], e[4], e[5], e[6]),
+            &Vector3::new(e[8], e[9], e[10]),
+            &Quat::new(e[11], e[12], e[13], e[14]),
+            e[7],
+        );
+        DVector::from_vec(vec![sideways, vertical])
     };
-    let value = at(x);
-    let mut h = DMatrix::<f64>::zeros(2, columns.len());
-    let mut probe = x.clone();
-    for (k, &c) in columns.iter().enumerate() {
-        if c == ARM && !learn_arm {
-            continue;
-        }
-        let e = 1e-6 * x[c].abs().max(1.0);
-        probe[c] = x[c] + e;
-        let up = at(&probe);
-        probe[c] = x[c] - e;
-        let down = at(&probe);
-        probe[c] = x[c];
-        for row in 0..2 {
-            h[(row, k)] = (up[row] - down[row]) / (2.0 * e);
-        }
+    let entries = DVector::from_iterator(columns.len(), columns.iter().map(|&c| x[c]));
+    let mut h = central_jacobian(&entries, residual);
+    if !learn_arm {
+        h.column_mut(7).fill(0.0);
     }
-    (DVector::from_row_slice(&value), columns, h)
+    (residual(&entries), columns, h)
 }
 
 /// One relative motion measured by odometry, in the previous camera frame.
@@ -274,21 +264,13 @@ pub fn predict(
         }) => {
             let next = wheeled_step(camera, dt);
             let f = central_jacobian(camera, |c| wheeled_step(c, dt));
-            // Impulses V = a·dt, Ω = α·dt enter like v and ω: G = F[:, v, ω].
-            let g = f.columns(7, 6).into_owned();
-            let mut noise = DMatrix::<f64>::zeros(6, 6);
-            for i in 0..3 {
-                noise[(i, i)] = (linear_acceleration * dt).powi(2);
-                noise[(i + 3, i + 3)] = (angular_acceleration * dt).powi(2);
-            }
-            let qn = &g * noise * g.transpose();
+            let qn = impulse_covariance(&f, linear_acceleration, angular_acceleration, dt);
             (next, f, qn)
         }
         MotionModel::ConstantVelocity {
             linear_acceleration,
             angular_acceleration,
         } => {
-            // The wheeled model's arm is a constant: F and Q are the identity and zero there.
             let v = Vector3::new(camera[7], camera[8], camera[9]);
             let w = Vector3::new(camera[10], camera[11], camera[12]);
             let dq = rotation::from_rotation_vector(&(w * dt));
@@ -303,19 +285,7 @@ pub fn predict(
             let dq_dw: SMatrix<f64, 4, 3> =
                 rotation::d_multiply_d_right(&q) * rotation::d_from_rotation_vector(&(w * dt)) * dt;
             f.view_mut((3, 10), (4, 3)).copy_from(&dq_dw);
-            // Impulses V = a·dt, Ω = α·dt enter like v and ω: G = ∂f/∂(V, Ω) = F[:, v, ω].
-            let mut g = DMatrix::<f64>::zeros(n, 6);
-            g.view_mut((0, 0), (3, 3))
-                .copy_from(&(Matrix3::identity() * dt));
-            g.view_mut((3, 3), (4, 3)).copy_from(&dq_dw);
-            g.view_mut((7, 0), (6, 6))
-                .copy_from(&DMatrix::<f64>::identity(6, 6));
-            let mut noise = DMatrix::<f64>::zeros(6, 6);
-            for i in 0..3 {
-                noise[(i, i)] = (linear_acceleration * dt).powi(2);
-                noise[(i + 3, i + 3)] = (angular_acceleration * dt).powi(2);
-            }
-            let qn = &g * noise * g.transpose();
+            let qn = impulse_covariance(&f, linear_acceleration, angular_acceleration, dt);
             (next, f, qn)
         }
         MotionModel::Odometry {
@@ -355,6 +325,19 @@ pub fn predict(
             (next, f, qn)
         }
     }
+}
+
+/// The process noise of the velocity models: unknown accelerations as impulses V = a·dt and
+/// Ω = α·dt, which enter the state like v and ω, so G = ∂f/∂(V, Ω) = F[:, v, ω] and
+/// Q = G·diag((a·dt)², (α·dt)²)·Gᵀ (zero on the wheeled model's arm, a constant).
+fn impulse_covariance(f: &DMatrix<f64>, linear: f64, angular: f64, dt: f64) -> DMatrix<f64> {
+    let g = f.columns(7, 6);
+    let mut noise = DMatrix::<f64>::zeros(6, 6);
+    for i in 0..3 {
+        noise[(i, i)] = (linear * dt).powi(2);
+        noise[(i + 3, i + 3)] = (angular * dt).powi(2);
+    }
+    g * noise * g.transpose()
 }
 
 /// The wheeled model's prediction: a vehicle keeps its velocity in its own frame, u = R(q)ᵀv,
