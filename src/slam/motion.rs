@@ -203,7 +203,7 @@ fn step_residual(r: &Vector3<f64>, q: &Quat, r0: &Vector3<f64>, q0: &Quat, arm: 
 /// end frame sees a car's chord turned by half the step's rotation), and takes the step's
 /// rotation from the orientations the measurements fixed, not from the angular velocity the
 /// motion model holds. Returns the values, the entries of x they depend on (r, q, d, r₀, q₀)
-/// and the Jacobian over those entries ([`central_jacobian`]). With `learn_arm` false the arm
+/// and the Jacobian over those entries (by central differences). With `learn_arm` false the arm
 /// is held (its column is zero): outside a clear turn the swing says nothing of d, but its
 /// linearisation about a noisy turn would let the filter believe it learns d on every
 /// straight step.
