@@ -16,6 +16,7 @@ pub mod camera;
 pub mod config;
 pub mod data;
 pub(crate) mod ekf;
+mod ground;
 pub(crate) mod inverse_depth;
 pub(crate) mod klt;
 mod landmarks;

@@ -86,9 +86,11 @@ pub struct WheeledMotion {
     /// Prior standard deviation of the arm d, map units (its prior mean is 0: the camera on
     /// the turning axis). A map's unit is about half the median depth of the first view.
     pub arm_sigma: f64,
-    /// Landmarks met below the horizon while the vehicle turns in place start where their ray
-    /// meets the ground, the camera's height over it learnt from the map (docs/SLAM.md);
-    /// `false` when the camera cannot see the ground it drives on. Default true.
+    /// The camera rides at a fixed height over flat ground it can see: that height is learnt
+    /// in the map's unit and holds the ground's landmarks to it, which keeps the map's unit
+    /// (`ground.rs`), and landmarks met below the horizon while the vehicle turns in place
+    /// start where their ray meets the ground (docs/SLAM.md); `false` when the camera cannot
+    /// see the ground it drives on, or the ground is not flat. Default true.
     pub ground_prior: bool,
 }
 
@@ -122,11 +124,11 @@ impl MotionModel {
         }
     }
 
-    /// Number of camera-state entries: 13, 14 or 7.
+    /// Number of camera-state entries: 13, 15 or 7.
     pub fn camera_dim(&self) -> usize {
         match self {
             MotionModel::ConstantVelocity { .. } => 13,
-            MotionModel::Wheeled(_) => 14,
+            MotionModel::Wheeled(_) => 15,
             MotionModel::Odometry { .. } => 7,
         }
     }
@@ -140,6 +142,10 @@ impl MotionModel {
 
 /// Index of the wheeled model's arm d in the camera state.
 pub const ARM: usize = 13;
+
+/// Index of the wheeled model's camera height over the ground, H, in the camera state
+/// (`super::ground`); held by the prediction.
+pub const GROUND: usize = 14;
 
 /// The wheeled model's pseudo-measurements of a camera state: the constraint values c(x)
 /// (zero when the motion obeys them), ∂c/∂x over the camera block, and the standard deviation

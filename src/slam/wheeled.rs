@@ -47,7 +47,7 @@ impl Filter {
     }
 
     /// Takes pseudo-measurements c(x) = 0 ± `sigma` with Jacobian `h` over `columns`.
-    fn take_constraint(
+    pub(super) fn take_constraint(
         &mut self,
         value: &DVector<f64>,
         columns: &[usize],

@@ -171,6 +171,7 @@ impl Slam {
         let outcome = self.update_with(frame, timestamp, &candidates, &inlier_flags);
         // The wheeled model's step constraint, on the pose the measurements have moved.
         self.filter.close_step();
+        self.filter.constrain_ground();
         let (lost, relocalised) = self.judge_tracking(&searched, outcome.supported.len());
         // By landmark id: deletion below moves the slots.
         let measured: Vec<(u64, nalgebra::Vector2<f64>)> = candidates

@@ -83,7 +83,15 @@ impl Slam {
         let turn = Vector3::new(x[10], x[11], x[12]).norm();
         (speed < TURNING_TRANSLATION * turn / rho).then(|| TurningPrior {
             rho,
-            ground: wheeled.ground_prior.then(|| self.ground_height()).flatten(),
+            ground: wheeled
+                .ground_prior
+                .then(|| {
+                    self.filter
+                        .ground()
+                        .map(|g| g.0)
+                        .or_else(|| self.ground_height())
+                })
+                .flatten(),
             camera: self.filter.camera().clone(),
         })
     }
