@@ -72,6 +72,13 @@ impl Filter {
             .collect()
     }
 
+    /// The ground's distance below the camera as the map places it, map units: the
+    /// [`SEAT_QUANTILE`] of the converged landmarks' heights below the camera, once
+    /// [`SEAT_MIN_LANDMARKS`] lie there.
+    pub(in crate::slam) fn ground_from_map(&self) -> Option<f64> {
+        ground_from(&self.below_camera())
+    }
+
     /// Seats H when it is not yet and the map allows, then takes this frame's constraint:
     /// each ground landmark's height below the camera is H. A no-op for the other models.
     pub(in crate::slam) fn constrain_ground(&mut self) {
@@ -80,12 +87,9 @@ impl Filter {
         };
         let below = self.below_camera();
         if self.p[(entry, entry)] <= 0.0 {
-            if below.len() < SEAT_MIN_LANDMARKS {
+            let Some(height) = ground_from(&below) else {
                 return;
-            }
-            let mut heights: Vec<f64> = below.iter().map(|b| b.1).collect();
-            let k = ((heights.len() - 1) as f64 * SEAT_QUANTILE) as usize;
-            let height = *heights.select_nth_unstable_by(k, f64::total_cmp).1;
+            };
             self.x[entry] = height;
             self.p[(entry, entry)] = (SEAT_SPREAD * height).powi(2);
             log::debug!("ground seated {height:.3} map units below the camera");
@@ -157,6 +161,17 @@ impl Filter {
         }
         (value, columns, jacobian)
     }
+}
+
+/// The [`SEAT_QUANTILE`] of the heights of `below` (from `Filter::below_camera`), once
+/// [`SEAT_MIN_LANDMARKS`] lie there.
+fn ground_from(below: &[(usize, f64, f64, f64)]) -> Option<f64> {
+    if below.len() < SEAT_MIN_LANDMARKS {
+        return None;
+    }
+    let mut heights: Vec<f64> = below.iter().map(|b| b.1).collect();
+    let k = ((heights.len() - 1) as f64 * SEAT_QUANTILE) as usize;
+    Some(*heights.select_nth_unstable_by(k, f64::total_cmp).1)
 }
 
 #[cfg(test)]

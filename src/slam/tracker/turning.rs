@@ -5,8 +5,8 @@
 //! start at, and the next leg takes its unit from them (docs/SLAM.md, "The map's depths against
 //! the truth"). Two guesses, in the map's own unit:
 //! - below the horizon, where the ray meets the ground: the camera rides at a fixed height over
-//!   it, learnt from the map as the height below the camera that the converged landmarks reach
-//!   (the ground is the lowest surface there is);
+//!   it, the filter's (`ground.rs`) once seated, before that the height below the camera that
+//!   the converged landmarks reach (the ground is the lowest surface there is);
 //! - elsewhere, the median inverse distance of the converged landmarks in view.
 
 use nalgebra::{Vector2, Vector3};
@@ -14,7 +14,6 @@ use nalgebra::{Vector2, Vector3};
 use super::Slam;
 use crate::slam::camera::PinholeCamera;
 use crate::slam::motion::MotionModel;
-use crate::slam::rotation;
 
 /// The turning prior applies while the camera translates less than this fraction of what its
 /// rotation sweeps at the scene's depth (|v| < k·|ω|/ρ): an in-place turn on its arm is about
@@ -25,12 +24,6 @@ const TURNING_TRANSLATION: f64 = 0.2;
 const TURNING_PRIOR_SPREAD: f64 = 0.5;
 /// A landmark counts as converged when σ_ρ/ρ is below this (Euclidean ones always do).
 const CONVERGED: f64 = 0.3;
-/// The ground lies at this quantile of the converged landmarks' heights below the camera:
-/// the ground is the lowest surface, and the top tenth allows for landmarks whose depth is
-/// still too long (0.75 / 0.85 / 0.95 measured on the rover: docs/SLAM.md).
-const GROUND_QUANTILE: f64 = 0.9;
-/// The ground is trusted once this many converged landmarks lie below the camera.
-const GROUND_MIN_LANDMARKS: usize = 10;
 /// Rays within about 3° of the horizon (this sine) meet the ground too far away to say
 /// anything; they take the scene's median.
 const GROUND_MIN_SLOPE: f64 = 0.05;
@@ -89,28 +82,11 @@ impl Slam {
                     self.filter
                         .ground()
                         .map(|g| g.0)
-                        .or_else(|| self.ground_height())
+                        .or_else(|| self.filter.ground_from_map())
                 })
                 .flatten(),
             camera: self.filter.camera().clone(),
         })
-    }
-
-    /// The ground's distance below the camera, map units: the [`GROUND_QUANTILE`] of the
-    /// converged landmarks' heights below it, once [`GROUND_MIN_LANDMARKS`] lie there.
-    fn ground_height(&self) -> Option<f64> {
-        let r = self.filter.position();
-        let to_camera = rotation::matrix(&self.filter.orientation()).transpose();
-        let mut below: Vec<f64> = (0..self.filter.slots().len())
-            .filter_map(|slot| self.converged_point(slot, &r))
-            .map(|p| (to_camera * (p - r)).y)
-            .filter(|&y| y > 0.0)
-            .collect();
-        if below.len() < GROUND_MIN_LANDMARKS {
-            return None;
-        }
-        let k = ((below.len() - 1) as f64 * GROUND_QUANTILE) as usize;
-        Some(*below.select_nth_unstable_by(k, f64::total_cmp).1)
     }
 
     /// The landmark in `slot`, when its depth seen from `r` has converged.
