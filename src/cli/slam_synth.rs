@@ -39,7 +39,7 @@ pub struct SlamSynthCmd {
     motion: MotionArg,
     /// Settings file whose [synthetic] table (width, height, fov_deg, k1, fps, room,
     /// amplitude, speed, camera_height, period, texels_per_metre, seed, rooms, clutter,
-    /// plain_fraction, exposure, noise, gain_jitter) goes over the motion's defaults; --frames
+    /// plain_fraction, exposure, noise, gain_jitter, supersample) goes over the motion's defaults; --frames
     /// overrides.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,

@@ -100,6 +100,11 @@ pub struct SyntheticConfig {
     pub noise: f64,
     /// Auto-exposure: spread of the gain's log change per frame (0–0.5).
     pub gain_jitter: f64,
+    /// Rays per pixel side (1–4): a pixel averages the light of supersample² rays spread
+    /// over its area, as a sensor integrates it. One ray per pixel aliases textures finer
+    /// than the pixels (a small image of a wall a few metres away), and the aliased pattern
+    /// moves against the scene.
+    pub supersample: u32,
 }
 
 impl Default for SyntheticConfig {
@@ -125,6 +130,7 @@ impl Default for SyntheticConfig {
             exposure: 0.0,
             noise: 0.0,
             gain_jitter: 0.0,
+            supersample: 1,
         }
     }
 }
@@ -192,7 +198,7 @@ impl SyntheticConfig {
     /// Refuses settings outside the ranges that bound the work and keep the scene sound.
     fn validate(&self) -> Result<()> {
         let walks = matches!(self.motion, SyntheticMotion::Walk | SyntheticMotion::Rover);
-        let checks: [(bool, &'static str, String, &str); 12] = [
+        let checks: [(bool, &'static str, String, &str); 13] = [
             (
                 self.frames >= 1 && self.fps > 0.0 && self.fps.is_finite(),
                 "synthetic.frames",
@@ -270,6 +276,12 @@ impl SyntheticConfig {
                 format!("noise={} gain_jitter={}", self.noise, self.gain_jitter),
                 "needs noise in [0, 64] grey levels and gain_jitter in [0, 0.5]",
             ),
+            (
+                (1..=4).contains(&self.supersample),
+                "synthetic.supersample",
+                self.supersample.to_string(),
+                "needs 1 to 4 rays per pixel side",
+            ),
         ];
         for (ok, field, value, reason) in checks {
             if !ok {
@@ -289,7 +301,10 @@ pub struct SyntheticSequence {
     /// Ground-truth camera poses, one per frame.
     pub poses: Vec<Pose>,
     scene: Scene,
+    /// Each pixel's centre ray (depth and the tests).
     rays: Vec<Vector3<f64>>,
+    /// Each pixel's supersample² rays, pixel after pixel.
+    pixel_rays: Vec<Vector3<f64>>,
     /// Per frame, the poses averaged over the exposure (empty without motion blur).
     exposures: Vec<Vec<Pose>>,
     gains: Vec<f64>,
@@ -312,14 +327,24 @@ impl SyntheticSequence {
                 config.height,
             )
         };
-        let rays = (0..config.width as usize * config.height as usize)
-            .map(|i| {
-                let z = Vector2::new(
-                    (i % config.width as usize) as f64,
-                    (i / config.width as usize) as f64,
-                );
-                camera.back_project(z).0
+        let pixels = config.width as usize * config.height as usize;
+        let centre = |i: usize| {
+            Vector2::new(
+                (i % config.width as usize) as f64,
+                (i / config.width as usize) as f64,
+            )
+        };
+        let rays = (0..pixels)
+            .map(|i| camera.back_project(centre(i)).0)
+            .collect();
+        let side = config.supersample as usize;
+        let offset = |k: usize| (k as f64 + 0.5) / side as f64 - 0.5;
+        let pixel_rays = (0..pixels)
+            .flat_map(|i| {
+                (0..side * side)
+                    .map(move |k| centre(i) + Vector2::new(offset(k % side), offset(k / side)))
             })
+            .map(|z| camera.back_project(z).0)
             .collect();
         let poses = motion::trajectory(&config, config.fps, config.frames);
         if let Some((k, pose)) = poses
@@ -361,6 +386,7 @@ impl SyntheticSequence {
             poses,
             scene,
             rays,
+            pixel_rays,
             exposures,
             gains,
         })
@@ -379,7 +405,8 @@ impl SyntheticSequence {
         .collect();
         let (w, h) = (self.config.width as usize, self.config.height as usize);
         let mut rgb = vec![0u8; 3 * w * h];
-        let weight = 1.0 / views.len() as f64;
+        let per_pixel = (self.config.supersample * self.config.supersample) as usize;
+        let weight = 1.0 / (views.len() * per_pixel) as f64;
         let frame_seed = self
             .config
             .seed
@@ -389,9 +416,12 @@ impl SyntheticSequence {
             let mut light = vec![0.0f64; 3 * w];
             for (position, rot) in &views {
                 for x in 0..w {
-                    let c = self.scene.shade(position, &(rot * self.rays[y * w + x]));
-                    for (l, c) in light[3 * x..3 * x + 3].iter_mut().zip(c) {
-                        *l += c * weight;
+                    let first = (y * w + x) * per_pixel;
+                    for ray in &self.pixel_rays[first..first + per_pixel] {
+                        let c = self.scene.shade(position, &(rot * ray));
+                        for (l, c) in light[3 * x..3 * x + 3].iter_mut().zip(c) {
+                            *l += c * weight;
+                        }
                     }
                 }
             }
@@ -610,6 +640,48 @@ mod tests {
             (0.05..0.9).contains(&share),
             "furniture covers {share} of the view"
         );
+    }
+
+    #[test]
+    fn supersampling_integrates_each_pixel_and_refuses_more_than_four_rays_a_side() {
+        // The room at 160×120: about four texels a pixel on the far wall, where one ray a
+        // pixel aliases. Integration keeps the mean and takes out the aliased detail.
+        let config = |supersample| SyntheticConfig {
+            width: 160,
+            height: 120,
+            frames: 1,
+            supersample,
+            ..SyntheticConfig::default()
+        };
+        let gray = |supersample| {
+            SyntheticSequence::new(config(supersample))
+                .unwrap()
+                .render(0)
+                .gray
+        };
+        let (one, three) = (gray(1), gray(3));
+        let mean = |g: &[f32]| g.iter().sum::<f32>() / g.len() as f32;
+        let detail =
+            |g: &[f32]| g.windows(2).map(|w| (w[1] - w[0]).powi(2)).sum::<f32>() / g.len() as f32;
+        assert!(
+            (mean(&one) - mean(&three)).abs() < 0.02,
+            "{} {}",
+            mean(&one),
+            mean(&three)
+        );
+        assert!(
+            detail(&three) < 0.7 * detail(&one),
+            "{} {}",
+            detail(&three),
+            detail(&one)
+        );
+        for bad in [0, 5] {
+            let e = SyntheticSequence::new(config(bad))
+                .err()
+                .expect("refused")
+                .to_string();
+            assert!(e.contains("synthetic.supersample"), "{e}");
+        }
     }
 
     #[test]
