@@ -228,6 +228,12 @@ pub struct StartConfig {
     pub velocity_sigma_fraction: f64,
     /// Smallest σ_ρ/ρ given to a triangulated start-up landmark.
     pub depth_floor: f64,
+    /// Refine the two-view motion on the Sampson distances from 18 starting directions
+    /// (`two_view_refine.rs`): the eight-point direction is biased towards the optical axis,
+    /// 40–50° off on hand-held starts that walk sideways while turning. Off by default: on
+    /// the generated walks it helps (240×180: mean ATE 3.22 → 1.43%), on the real KITTI
+    /// clip_b from its 16th frame it hurts (0.96 → 7.59%; docs/SLAM.md).
+    pub two_view_search: bool,
 }
 
 impl Default for StartConfig {
@@ -244,6 +250,7 @@ impl Default for StartConfig {
             orientation_variance: 1e-6,
             velocity_sigma_fraction: 0.1,
             depth_floor: 0.1,
+            two_view_search: false,
         }
     }
 }

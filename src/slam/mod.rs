@@ -25,6 +25,7 @@ pub mod refine;
 pub(crate) mod rotation;
 pub(crate) mod tracker;
 pub(crate) mod two_view;
+mod two_view_refine;
 mod wheeled;
 
 pub use config::SlamConfig;

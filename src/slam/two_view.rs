@@ -1,12 +1,14 @@
 //! Two-view geometry for starting the filter on a moving camera: the essential matrix from
 //! normalised correspondences (eight-point algorithm inside RANSAC, Sampson distance), its
 //! decomposition into rotation and translation direction chosen by cheirality, and the
-//! triangulated depths. Not an equation of the paper: the paper starts the filter at rest
+//! triangulated depths; the motion is then refined on every correspondence's Sampson distance
+//! from several starting directions (`two_view_refine.rs`). Not an equation of the paper: the paper starts the filter at rest
 //! (v = 0, eq 15), which a car driving at 12 m/s from the first frame contradicts by tens of
 //! standard deviations, and the first updates then explain forward motion with rotation.
 
 use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
+use super::two_view_refine::{refine, skew};
 use crate::rng::Rng;
 
 /// The relative motion of the second camera: a point X₀ in the first camera's frame is at
@@ -64,7 +66,8 @@ fn essential_from(
     Some(u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 0.0)) * v_t)
 }
 
-fn sampson(e: &Matrix3<f64>, (a, b): &Correspondence) -> f64 {
+/// The squared Sampson distance of a correspondence to the essential matrix `e`.
+pub(super) fn sampson(e: &Matrix3<f64>, (a, b): &Correspondence) -> f64 {
     let ea = e * a;
     let etb = e.transpose() * b;
     let r = b.dot(&ea);
@@ -91,11 +94,13 @@ fn triangulate(
 }
 
 /// Estimates the relative pose from normalised correspondences. `threshold` is the largest
-/// Sampson distance of an inlier in normalised units (pixels / focal length).
+/// Sampson distance of an inlier in normalised units (pixels / focal length). With `search`,
+/// the motion is refined from several starting directions (`two_view_refine.rs`).
 pub fn relative_pose(
     points: &[Correspondence],
     threshold: f64,
     iterations: usize,
+    search: bool,
     rng: &mut Rng,
 ) -> Option<RelativePose> {
     let n = points.len();
@@ -167,6 +172,33 @@ pub fn relative_pose(
         }
     }
     let (_, rotation, translation) = chosen?;
+    let (rotation, translation) = if search {
+        refine(points, rotation, translation, threshold)
+    } else {
+        (rotation, translation)
+    };
+    let e = skew(&translation) * rotation;
+    let inliers: Vec<bool> = if search {
+        points.iter().map(|c| sampson(&e, c) < t2).collect()
+    } else {
+        inliers
+    };
+    // The refinement keeps the start's hemisphere; cheirality has the last word on the sign.
+    let front = |t: &Vector3<f64>| {
+        (0..n)
+            .filter(|&i| inliers[i])
+            .filter(|&i| {
+                triangulate(&rotation, t, &points[i].0, &points[i].1)
+                    .is_some_and(|(d0, d1)| d0 > 0.0 && d1 > 0.0)
+            })
+            .count()
+    };
+    let translation = if front(&-translation) > front(&translation) {
+        -translation
+    } else {
+        translation
+    };
+    let mut inliers = inliers;
     let mut depths = vec![0.0; n];
     let mut parallax = vec![0.0; n];
     for i in 0..n {
@@ -257,13 +289,15 @@ mod tests {
             }
             points.push((x0 / x0.z, b));
         }
-        let pose = relative_pose(&points, 1.0 / 700.0, 200, &mut rng).expect("pose");
-        assert!((pose.rotation - rot).amax() < 1e-6, "{}", pose.rotation);
-        assert!((pose.translation - t).norm() < 1e-6, "{}", pose.translation);
-        for (i, &inlier) in pose.inliers.iter().enumerate() {
-            assert_eq!(inlier, i % 5 != 0, "point {i}");
+        for search in [false, true] {
+            let pose = relative_pose(&points, 1.0 / 700.0, 200, search, &mut rng).expect("pose");
+            assert!((pose.rotation - rot).amax() < 1e-6, "{}", pose.rotation);
+            assert!((pose.translation - t).norm() < 1e-6, "{}", pose.translation);
+            for (i, &inlier) in pose.inliers.iter().enumerate() {
+                assert_eq!(inlier, i % 5 != 0, "point {i}");
+            }
+            let x0 = points[1].0 * 1.0;
+            assert!(pose.depths[1] > 0.0 && x0.z > 0.0);
         }
-        let x0 = points[1].0 * 1.0;
-        assert!(pose.depths[1] > 0.0 && x0.z > 0.0);
     }
 }

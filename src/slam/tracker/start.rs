@@ -212,6 +212,7 @@ impl Slam {
             &pairs,
             threshold,
             self.config.start.two_view_iterations,
+            self.config.start.two_view_search,
             &mut self.rng,
         ) else {
             return 0;
