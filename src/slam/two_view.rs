@@ -1,10 +1,11 @@
 //! Two-view geometry for starting the filter on a moving camera: the essential matrix from
 //! normalised correspondences (eight-point algorithm inside RANSAC, Sampson distance), its
 //! decomposition into rotation and translation direction chosen by cheirality, and the
-//! triangulated depths; the motion is then refined on every correspondence's Sampson distance
-//! from several starting directions (`two_view_refine.rs`). Not an equation of the paper: the paper starts the filter at rest
-//! (v = 0, eq 15), which a car driving at 12 m/s from the first frame contradicts by tens of
-//! standard deviations, and the first updates then explain forward motion with rotation.
+//! triangulated depths; on request (`[slam.start] two_view_search`) the motion is refined on
+//! the Sampson distances from several starting directions (`two_view_refine.rs`). Not an
+//! equation of the paper: the paper starts the filter at rest (v = 0, eq 15), which a car
+//! driving at 12 m/s from the first frame contradicts by tens of standard deviations, and the
+//! first updates then explain forward motion with rotation.
 
 use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
@@ -173,32 +174,24 @@ pub fn relative_pose(
     }
     let (_, rotation, translation) = chosen?;
     let (rotation, translation) = if search {
-        refine(points, rotation, translation, threshold)
+        let (r, t) = refine(points, rotation, translation, threshold);
+        let e = skew(&t) * r;
+        inliers = points.iter().map(|c| sampson(&e, c) < t2).collect();
+        // The Sampson cost does not see the translation's sign: cheirality chooses it.
+        let front = |t: &Vector3<f64>| {
+            (0..n)
+                .filter(|&i| inliers[i])
+                .filter(|&i| {
+                    triangulate(&r, t, &points[i].0, &points[i].1)
+                        .is_some_and(|(d0, d1)| d0 > 0.0 && d1 > 0.0)
+                })
+                .count()
+        };
+        let t = if front(&-t) > front(&t) { -t } else { t };
+        (r, t)
     } else {
         (rotation, translation)
     };
-    let e = skew(&translation) * rotation;
-    let inliers: Vec<bool> = if search {
-        points.iter().map(|c| sampson(&e, c) < t2).collect()
-    } else {
-        inliers
-    };
-    // The refinement keeps the start's hemisphere; cheirality has the last word on the sign.
-    let front = |t: &Vector3<f64>| {
-        (0..n)
-            .filter(|&i| inliers[i])
-            .filter(|&i| {
-                triangulate(&rotation, t, &points[i].0, &points[i].1)
-                    .is_some_and(|(d0, d1)| d0 > 0.0 && d1 > 0.0)
-            })
-            .count()
-    };
-    let translation = if front(&-translation) > front(&translation) {
-        -translation
-    } else {
-        translation
-    };
-    let mut inliers = inliers;
     let mut depths = vec![0.0; n];
     let mut parallax = vec![0.0; n];
     for i in 0..n {

@@ -9,14 +9,18 @@
 //! Sampson cost over the directions has a valley with more than one basin, and a refinement
 //! started from the eight-point direction stays in its basin. So Levenberg–Marquardt starts
 //! from that direction and from a spread of others on its hemisphere, on every correspondence
-//! (the inliers were picked by the biased fit): a wide Cauchy cost finds each start's basin,
+//! within [`GATE`] thresholds of the eight-point fit (its inliers were picked by the biased
+//! fit; the gross outliers stay out): a wide Cauchy cost finds each start's basin,
 //! the truncated quadratic of RANSAC's score (MSAC) settles in it, and the lowest score wins.
+//! Used when `[slam.start] two_view_search` is on; it is off by default, since on forward
+//! starts (KITTI clip_b) another basin can score lower and be wrong (docs/SLAM.md, "Hand-held
+//! starts").
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix5, Rotation3, SVector, Vector3};
 
 use super::two_view::{sampson, Correspondence};
 
-/// Gauss–Newton iterations from each start.
+/// Levenberg–Marquardt iterations from each start.
 const ITERATIONS: usize = 12;
 /// Polar angles, radians, of the starting directions around the eight-point one's
 /// hemisphere axis (the optical axis), with [`AZIMUTHS`] directions on each ring.
