@@ -39,8 +39,8 @@ pub struct SlamSynthCmd {
     motion: MotionArg,
     /// Settings file whose [synthetic] table (width, height, fov_deg, k1, fps, room,
     /// amplitude, speed, camera_height, period, texels_per_metre, seed, rooms, clutter,
-    /// plain_fraction, exposure, noise, gain_jitter, supersample) goes over the motion's defaults; --frames
-    /// overrides.
+    /// plain_fraction, exposure, noise, gain_jitter, supersample) goes over the motion's
+    /// defaults; --frames overrides.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Also write the true depth of every frame as the TUM RGB-D benchmark does (depth/, 16-bit

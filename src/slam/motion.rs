@@ -369,8 +369,12 @@ fn wheeled_step(camera: &DVector<f64>, dt: f64) -> DVector<f64> {
 }
 
 /// The Jacobian of `f` at `x` by central differences (steps of 10⁻⁶ relative to each entry,
-/// at least 10⁻⁶): for the smooth, cheap functions of a few entries the wheeled model adds.
-fn central_jacobian(x: &DVector<f64>, f: impl Fn(&DVector<f64>) -> DVector<f64>) -> DMatrix<f64> {
+/// at least 10⁻⁶): for the smooth, cheap functions of a few entries the wheeled model adds,
+/// and the two-view refinement's five.
+pub(super) fn central_jacobian(
+    x: &DVector<f64>,
+    f: impl Fn(&DVector<f64>) -> DVector<f64>,
+) -> DMatrix<f64> {
     let rows = f(x).len();
     let mut j = DMatrix::<f64>::zeros(rows, x.len());
     let mut probe = x.clone();

@@ -9,7 +9,8 @@
 
 use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
-use super::two_view_refine::{refine, skew};
+use super::rotation::skew;
+use super::two_view_refine::refine;
 use crate::rng::Rng;
 
 /// The relative motion of the second camera: a point X₀ in the first camera's frame is at
@@ -68,11 +69,18 @@ fn essential_from(
 }
 
 /// The squared Sampson distance of a correspondence to the essential matrix `e`.
-pub(super) fn sampson(e: &Matrix3<f64>, (a, b): &Correspondence) -> f64 {
+fn sampson(e: &Matrix3<f64>, c: &Correspondence) -> f64 {
+    sampson_residual(e, c).powi(2)
+}
+
+/// The signed Sampson residual: the epipolar error bᵀE·a over its first-order spread.
+pub(super) fn sampson_residual(e: &Matrix3<f64>, (a, b): &Correspondence) -> f64 {
     let ea = e * a;
     let etb = e.transpose() * b;
-    let r = b.dot(&ea);
-    r * r / (ea.x * ea.x + ea.y * ea.y + etb.x * etb.x + etb.y * etb.y).max(1e-30)
+    b.dot(&ea)
+        / (ea.x * ea.x + ea.y * ea.y + etb.x * etb.x + etb.y * etb.y)
+            .max(1e-30)
+            .sqrt()
 }
 
 /// Depths (d₀, d₁) with d₁·b = R·(d₀·a) + t, by least squares; `None` when the rays are

@@ -18,7 +18,9 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix5, Rotation3, SVector, Vector3};
 
-use super::two_view::{sampson, Correspondence};
+use super::motion::central_jacobian;
+use super::rotation::skew;
+use super::two_view::{sampson_residual, Correspondence};
 
 /// Levenberg–Marquardt iterations from each start.
 const ITERATIONS: usize = 12;
@@ -33,14 +35,9 @@ const GATE: f64 = 10.0;
 /// The Cauchy scale that finds each start's basin, in RANSAC thresholds.
 const BASIN_SCALE: f64 = 3.0;
 
-/// [t]×, so that [t]×·x = t × x.
-pub(super) fn skew(t: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -t.z, t.y, t.z, 0.0, -t.x, -t.y, t.x, 0.0)
-}
-
 /// Refines (R, t) on `points` (X₁ = R·X₀ + t, |t| = 1), `threshold` the RANSAC one in
-/// normalised units. The returned translation is the direction found
-/// or its opposite: the Sampson cost does not see the sign, and cheirality is the caller's.
+/// normalised units. The returned translation may be the opposite of the true one: the
+/// Sampson cost does not see the sign, and cheirality is the caller's.
 pub(super) fn refine(
     points: &[Correspondence],
     rotation: Matrix3<f64>,
@@ -69,7 +66,7 @@ pub(super) fn refine(
     let gate = (GATE * threshold).powi(2);
     let near: Vec<Correspondence> = points
         .iter()
-        .filter(|c| sampson(&e, c) < gate)
+        .filter(|c| sampson_residual(&e, c).powi(2) < gate)
         .cloned()
         .collect();
     if near.len() < 8 {
@@ -100,17 +97,12 @@ struct Problem<'a> {
 }
 
 impl Problem<'_> {
-    /// Signed Sampson residuals: the epipolar error over its first-order spread.
+    /// The signed Sampson residuals of every correspondence.
     fn residuals(&self, r: &Matrix3<f64>, t: &Vector3<f64>) -> DVector<f64> {
         let e = skew(t) * r;
         DVector::from_iterator(
             self.points.len(),
-            self.points.iter().map(|(a, b)| {
-                let ea = e * a;
-                let etb = e.transpose() * b;
-                let spread = (ea.x * ea.x + ea.y * ea.y + etb.x * etb.x + etb.y * etb.y).sqrt();
-                b.dot(&ea) / spread.max(1e-15)
-            }),
+            self.points.iter().map(|c| sampson_residual(&e, c)),
         )
     }
 
@@ -136,7 +128,7 @@ impl Problem<'_> {
     }
 
     /// Levenberg–Marquardt from (r, t): the rotation moves by a rotation vector, the unit
-    /// translation on its tangent plane; the Jacobian by central differences. Returns the
+    /// translation on its tangent plane; the Jacobian by `central_jacobian`. Returns the
     /// pose and its cost.
     fn descend(
         &self,
@@ -149,16 +141,10 @@ impl Problem<'_> {
         let (mut weights, mut cost) = Self::robust(&residuals, loss);
         let mut lambda = 1e-3;
         for _ in 0..ITERATIONS {
-            let mut jacobian = DMatrix::<f64>::zeros(self.points.len(), 5);
-            let h = 1e-7;
-            for k in 0..5 {
-                let mut step = SVector::<f64, 5>::zeros();
-                step[k] = h;
-                let (rp, tp) = moved(&r, &t, &step);
-                let (rm, tm) = moved(&r, &t, &(-step));
-                let column = (self.residuals(&rp, &tp) - self.residuals(&rm, &tm)) / (2.0 * h);
-                jacobian.set_column(k, &column);
-            }
+            let jacobian = central_jacobian(&DVector::zeros(5), |d| {
+                let (rd, td) = moved(&r, &t, &SVector::<f64, 5>::from_column_slice(d.as_slice()));
+                self.residuals(&rd, &td)
+            });
             let weighted =
                 DMatrix::from_fn(self.points.len(), 5, |i, k| weights[i] * jacobian[(i, k)]);
             let normal: Matrix5<f64> = (weighted.transpose() * &jacobian)
