@@ -90,9 +90,18 @@ impl Slam {
         let report = py
             .detach(|| slam.process(&frame, t, None, &detector))
             .map_err(py_err)?;
-        let [qw, qx, qy, qz] = report.orientation;
-        let [x, y, z] = report.position;
-        self.trajectory.push([t, x, y, z, qx, qy, qz, qw]);
+        // The start may revise the frames of its trial (`take_revised`): the trajectory
+        // takes their new poses.
+        for earlier in self.inner.take_revised() {
+            if let Some(row) = self
+                .trajectory
+                .iter_mut()
+                .find(|row| row[0] == earlier.timestamp)
+            {
+                *row = tum_row(&earlier);
+            }
+        }
+        self.trajectory.push(tum_row(&report));
         let covariance = self.inner.filter().pose_covariance();
         Ok(FrameReport {
             covariance: std::array::from_fn(|a| std::array::from_fn(|b| covariance[(a, b)])),
@@ -100,13 +109,21 @@ impl Slam {
         })
     }
 
-    /// The trajectory so far as an (N, 8) TUM array: t, x, y, z, qx, qy, qz, qw.
+    /// The trajectory so far as an (N, 8) TUM array: t, x, y, z, qx, qy, qz, qw. Frames the
+    /// start revised after reporting them carry their revised poses.
     fn trajectory<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let flat: Vec<f64> = self.trajectory.iter().flatten().copied().collect();
         let array = Array2::from_shape_vec((self.trajectory.len(), 8), flat)
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         Ok(array.into_pyarray(py))
     }
+}
+
+/// A frame's pose as a TUM row: t, x, y, z, qx, qy, qz, qw.
+fn tum_row(report: &CoreFrameReport) -> [f64; 8] {
+    let [qw, qx, qy, qz] = report.orientation;
+    let [x, y, z] = report.position;
+    [report.timestamp, x, y, z, qx, qy, qz, qw]
 }
 
 /// What one frame did: the pose after it, its covariance, and the counts and flags of the

@@ -45,6 +45,7 @@ mod nav_sweep;
 mod slam;
 mod slam_depth;
 mod slam_eval;
+mod slam_revise;
 mod slam_synth;
 
 use std::process::ExitCode;

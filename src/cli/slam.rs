@@ -14,12 +14,15 @@ use steernav::slam::data::figure::{slam_figure, EstimatedPose};
 use steernav::slam::data::kitti;
 use steernav::slam::data::odometry::OdometryTrack;
 use steernav::slam::data::sequence::{self, Sequence};
-use steernav::slam::data::trajectory::{self, tum_line, Pose};
+use steernav::slam::data::trajectory::{self, Pose};
 use steernav::slam::{FrameReport, Slam};
 use steernav::{Frame, PinholeCamera};
 
 use crate::args::{progress, DetectorArgs};
 use crate::slam_depth::DepthCheck;
+use crate::slam_revise::{
+    create_report, create_trajectory, estimated_pose, revise, trajectory_line,
+};
 
 #[derive(Args)]
 pub struct SlamCmd {
@@ -56,7 +59,9 @@ pub struct SlamCmd {
     #[arg(long, conflicts_with_all = ["odometry", "odom_topic"])]
     wheeled: bool,
     /// Output directory: the estimated trajectory goes to DIR/trajectory.txt, written frame by
-    /// frame (see --format).
+    /// frame (see --format). When the start keeps the motion it tried beside the one it
+    /// reported ([slam.start] two_view_search), the file (and --report's) is written again
+    /// with the trial's frames revised.
     #[arg(long, value_name = "DIR", default_value = "slam-out")]
     out: PathBuf,
     /// Trajectory format: `tum` (t tx ty tz qx qy qz qw) or `kitti` (the 3×4 camera-to-world
@@ -75,7 +80,8 @@ pub struct SlamCmd {
     /// Also write the results as MCAP for ROS 2 tools and Foxglove: a
     /// geometry_msgs/msg/PoseStamped on /steernav/pose per frame (stamped like the frame, in
     /// the `map` frame), then nav_msgs/msg/Path on /steernav/path and the landmarks as
-    /// sensor_msgs/msg/PointCloud2 on /steernav/landmarks.
+    /// sensor_msgs/msg/PointCloud2 on /steernav/landmarks. The per-frame poses are a stream:
+    /// start frames revised later are not sent again; the path at the end has them.
     #[arg(long, value_name = "FILE")]
     mcap: Option<PathBuf>,
     /// Frame rate giving timestamps to a plain folder of frames (default 30) or to a KITTI
@@ -150,19 +156,9 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     let out_err = |p: &Path| format!("{}: cannot write", p.display());
     std::fs::create_dir_all(&cmd.out).with_context(|| out_err(&cmd.out))?;
     let traj_path = cmd.out.join("trajectory.txt");
-    let mut traj = std::io::BufWriter::new(
-        std::fs::File::create(&traj_path).with_context(|| out_err(&traj_path))?,
-    );
-    if cmd.format == TrajectoryFormat::Tum {
-        writeln!(traj, "# timestamp tx ty tz qx qy qz qw").with_context(|| out_err(&traj_path))?;
-    }
+    let mut traj = create_trajectory(&traj_path, cmd.format)?;
     let mut report = match &cmd.report {
-        Some(path) => {
-            let mut f = csv::Writer::from_path(path).with_context(|| out_err(path))?;
-            f.write_record(FrameReport::CSV_HEADER)
-                .with_context(|| out_err(path))?;
-            Some((path.clone(), f))
-        }
+        Some(path) => Some((path.clone(), create_report(path)?)),
         None => None,
     };
     let mut mcap = match &cmd.mcap {
@@ -234,16 +230,25 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
                 continue;
             }
         };
-        let pose = Pose {
-            timestamp: r.timestamp,
-            position: r.position.into(),
-            orientation: nalgebra::Vector4::from(r.orientation),
-        };
-        let line = match cmd.format {
-            TrajectoryFormat::Tum => tum_line(&pose),
-            TrajectoryFormat::Kitti => kitti::pose_row(&pose),
-        };
-        writeln!(traj, "{line}").with_context(|| out_err(&traj_path))?;
+        let revised = slam.take_revised();
+        if !revised.is_empty() {
+            // The start kept the motion it had not reported: its frames are written again.
+            let (t, f) = revise(
+                revised,
+                &mut reports,
+                &mut estimated,
+                (&traj_path, cmd.format),
+                report.as_ref().map(|(path, _)| path.as_path()),
+            )?;
+            traj = t;
+            if let (Some((_, old)), Some(f)) = (&mut report, f) {
+                *old = f;
+            }
+        }
+        let estimate = estimated_pose(&r);
+        let pose = estimate.pose;
+        writeln!(traj, "{}", trajectory_line(cmd.format, &pose))
+            .with_context(|| out_err(&traj_path))?;
         traj.flush().with_context(|| out_err(&traj_path))?;
         if let Some(bag) = &mut mcap {
             bag.write(POSE_TOPIC, timestamp, &pose_stamped(&r))?;
@@ -264,10 +269,7 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         } else {
             bar.set_message(format!("{} landmarks", r.landmarks));
         }
-        estimated.push(EstimatedPose {
-            pose,
-            covariance: r.position_covariance,
-        });
+        estimated.push(estimate);
         reports.push(r);
     }
     bar.finish_and_clear();

@@ -1,11 +1,11 @@
 //! Two-view geometry for starting the filter on a moving camera: the essential matrix from
 //! normalised correspondences (eight-point algorithm inside RANSAC, Sampson distance), its
 //! decomposition into rotation and translation direction chosen by cheirality, and the
-//! triangulated depths; on request (`[slam.start] two_view_search`) the motion is refined on
-//! the Sampson distances from several starting directions (`two_view_refine.rs`). Not an
-//! equation of the paper: the paper starts the filter at rest (v = 0, eq 15), which a car
-//! driving at 12 m/s from the first frame contradicts by tens of standard deviations, and the
-//! first updates then explain forward motion with rotation.
+//! triangulated depths; and a second hypothesis, the motion refined on the Sampson distances
+//! from several starting directions (`two_view_refine.rs`), which the start tries beside the
+//! first (`tracker/trial.rs`). Not an equation of the paper: the paper starts the filter at
+//! rest (v = 0, eq 15), which a car driving at 12 m/s from the first frame contradicts by tens
+//! of standard deviations, and the first updates then explain forward motion with rotation.
 
 use nalgebra::{Matrix3, SMatrix, SymmetricEigen, Vector3};
 
@@ -103,13 +103,11 @@ fn triangulate(
 }
 
 /// Estimates the relative pose from normalised correspondences. `threshold` is the largest
-/// Sampson distance of an inlier in normalised units (pixels / focal length). With `search`,
-/// the motion is refined from several starting directions (`two_view_refine.rs`).
+/// Sampson distance of an inlier in normalised units (pixels / focal length).
 pub fn relative_pose(
     points: &[Correspondence],
     threshold: f64,
     iterations: usize,
-    search: bool,
     rng: &mut Rng,
 ) -> Option<RelativePose> {
     let n = points.len();
@@ -181,25 +179,48 @@ pub fn relative_pose(
         }
     }
     let (_, rotation, translation) = chosen?;
-    let (rotation, translation) = if search {
-        let (r, t) = refine(points, rotation, translation, threshold);
-        let e = skew(&t) * r;
-        inliers = points.iter().map(|c| sampson(&e, c) < t2).collect();
-        // The Sampson cost does not see the translation's sign: cheirality chooses it.
-        let front = |t: &Vector3<f64>| {
-            (0..n)
-                .filter(|&i| inliers[i])
-                .filter(|&i| {
-                    triangulate(&r, t, &points[i].0, &points[i].1)
-                        .is_some_and(|(d0, d1)| d0 > 0.0 && d1 > 0.0)
-                })
-                .count()
-        };
-        let t = if front(&-t) > front(&t) { -t } else { t };
-        (r, t)
-    } else {
-        (rotation, translation)
+    Some(with_motion(points, rotation, translation, &inliers))
+}
+
+/// The motion refined from several starting directions (`two_view_refine.rs`), when it lands
+/// more than [`DISTINCT_DIRECTION`] from `pose`'s direction: a second hypothesis for the
+/// start to try beside the eight-point one. `None` when the search agrees with it.
+pub fn searched_alternative(
+    points: &[Correspondence],
+    pose: &RelativePose,
+    threshold: f64,
+) -> Option<RelativePose> {
+    let (r, t) = refine(points, pose.rotation, pose.translation, threshold);
+    let e = skew(&t) * r;
+    let t2 = threshold * threshold;
+    let inliers: Vec<bool> = points.iter().map(|c| sampson(&e, c) < t2).collect();
+    // The Sampson cost does not see the translation's sign: cheirality chooses it.
+    let front = |t: &Vector3<f64>| {
+        (0..points.len())
+            .filter(|&i| inliers[i])
+            .filter(|&i| {
+                triangulate(&r, t, &points[i].0, &points[i].1)
+                    .is_some_and(|(d0, d1)| d0 > 0.0 && d1 > 0.0)
+            })
+            .count()
     };
+    let t = if front(&-t) > front(&t) { -t } else { t };
+    let apart = t.dot(&pose.translation).clamp(-1.0, 1.0).acos();
+    (apart > DISTINCT_DIRECTION).then(|| with_motion(points, r, t, &inliers))
+}
+
+/// Directions closer than this (radians) are one hypothesis, not two.
+const DISTINCT_DIRECTION: f64 = 0.087;
+
+/// The pose of a motion: its inliers in front of both cameras, their depths and parallax.
+fn with_motion(
+    points: &[Correspondence],
+    rotation: Matrix3<f64>,
+    translation: Vector3<f64>,
+    agree: &[bool],
+) -> RelativePose {
+    let n = points.len();
+    let mut inliers = agree.to_vec();
     let mut depths = vec![0.0; n];
     let mut parallax = vec![0.0; n];
     for i in 0..n {
@@ -216,13 +237,13 @@ pub fn relative_pose(
             _ => inliers[i] = false,
         }
     }
-    Some(RelativePose {
+    RelativePose {
         rotation,
         translation,
         inliers,
         depths,
         parallax,
-    })
+    }
 }
 
 /// Where two rays come closest: the distance along the first from its centre, and the angle
@@ -290,15 +311,15 @@ mod tests {
             }
             points.push((x0 / x0.z, b));
         }
-        for search in [false, true] {
-            let pose = relative_pose(&points, 1.0 / 700.0, 200, search, &mut rng).expect("pose");
-            assert!((pose.rotation - rot).amax() < 1e-6, "{}", pose.rotation);
-            assert!((pose.translation - t).norm() < 1e-6, "{}", pose.translation);
-            for (i, &inlier) in pose.inliers.iter().enumerate() {
-                assert_eq!(inlier, i % 5 != 0, "point {i}");
-            }
-            let x0 = points[1].0 * 1.0;
-            assert!(pose.depths[1] > 0.0 && x0.z > 0.0);
+        let pose = relative_pose(&points, 1.0 / 700.0, 200, &mut rng).expect("pose");
+        assert!((pose.rotation - rot).amax() < 1e-6, "{}", pose.rotation);
+        assert!((pose.translation - t).norm() < 1e-6, "{}", pose.translation);
+        for (i, &inlier) in pose.inliers.iter().enumerate() {
+            assert_eq!(inlier, i % 5 != 0, "point {i}");
         }
+        let x0 = points[1].0 * 1.0;
+        assert!(pose.depths[1] > 0.0 && x0.z > 0.0);
+        // The search from an exact fit stays in its basin: no second hypothesis.
+        assert!(searched_alternative(&points, &pose, 1.0 / 700.0).is_none());
     }
 }

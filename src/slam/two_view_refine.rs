@@ -12,9 +12,10 @@
 //! within [`GATE`] thresholds of the eight-point fit (its inliers were picked by the biased
 //! fit; the gross outliers stay out): a wide Cauchy cost finds each start's basin,
 //! the truncated quadratic of RANSAC's score (MSAC) settles in it, and the lowest score wins.
-//! Used when `[slam.start] two_view_search` is on; it is off by default, since on forward
-//! starts (KITTI clip_b) another basin can score lower and be wrong (docs/SLAM.md, "Hand-held
-//! starts").
+//! The lowest score is not always the true motion: on forward starts (KITTI clip_b) another
+//! basin can score lower and be wrong (docs/SLAM.md, "Hand-held starts"). So the result is a
+//! second hypothesis, which the start tracks beside the eight-point one before it chooses
+//! (`tracker/trial.rs`).
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix5, Rotation3, SVector, Vector3};
 

@@ -4,7 +4,8 @@
 //! keep failing, and create new inverse-depth landmarks (eq 13) from steernav keypoints in
 //! image cells without tracked features.
 //!
-//! The rooms: `start` (the two-view start and the start at rest, as a `Phase`), `search` (the
+//! The rooms: `start` (the two-view start and the start at rest, as a `Phase`), `trial` (the
+//! start's second hypothesis, run beside the first for a few frames), `search` (the
 //! active search of one landmark), `update` (RANSAC, the update, the rescue, the template
 //! refresh), `map` (creation, conversion, deletion, the map output) and `report` (what each
 //! frame reports). This file is the per-frame orchestration.
@@ -14,6 +15,7 @@ mod map;
 mod report;
 mod search;
 mod start;
+mod trial;
 mod turning;
 mod update;
 
@@ -25,6 +27,7 @@ use self::map::Track;
 pub use self::report::{FrameReport, MapPoint, SlamTimings};
 use self::search::LandmarkSearch;
 use self::start::Phase;
+use self::trial::Trial;
 use super::camera::PinholeCamera;
 use super::config::SlamConfig;
 use super::ekf::{Filter, Observation};
@@ -38,6 +41,7 @@ use crate::image::Frame;
 use crate::rng::Rng;
 
 /// A monocular EKF SLAM session.
+#[derive(Clone, Debug)]
 pub struct Slam {
     config: SlamConfig,
     filter: Filter,
@@ -57,6 +61,12 @@ pub struct Slam {
     phase: Phase,
     /// The keyframes of the local bundle adjustment.
     window: Window,
+    /// The start's second hypothesis while both are tried.
+    trial: Option<Box<Trial>>,
+    /// While a trial runs: the normalised innovations of this hypothesis's matches so far.
+    trial_innovation: Option<f64>,
+    /// Reports of earlier frames revised since the caller last took them.
+    revised: Vec<FrameReport>,
 }
 
 impl Slam {
@@ -90,6 +100,9 @@ impl Slam {
             previous_pose: None,
             phase,
             window: Window::default(),
+            trial: None,
+            trial_innovation: None,
+            revised: Vec::new(),
         })
     }
 
@@ -108,8 +121,31 @@ impl Slam {
         self.filter.orientation()
     }
 
+    /// Reports of earlier frames that the session has revised since the last call, oldest
+    /// first; almost always empty. The start can try two motions side by side for a few
+    /// frames (`[slam.start] two_view_search`), reporting one; when the other wins, the
+    /// frames of the trial are reported again here, with its poses. A caller that keeps a
+    /// trajectory replaces those frames (same timestamps).
+    pub fn take_revised(&mut self) -> Vec<FrameReport> {
+        std::mem::take(&mut self.revised)
+    }
+
     /// Processes one frame taken at `timestamp` seconds (strictly increasing).
     pub fn process(
+        &mut self,
+        frame: &Frame,
+        timestamp: f64,
+        odometry: Option<&OdometryStep>,
+        detector: &Detector,
+    ) -> Result<FrameReport> {
+        match self.trial.take() {
+            Some(trial) => self.process_in_trial(trial, frame, timestamp, odometry, detector),
+            None => self.process_frame(frame, timestamp, odometry, detector),
+        }
+    }
+
+    /// One frame of one hypothesis.
+    fn process_frame(
         &mut self,
         frame: &Frame,
         timestamp: f64,
@@ -136,6 +172,7 @@ impl Slam {
                     &pyramid,
                     start,
                 );
+                self.end_seat_frame(&pyramid, timestamp);
                 self.end_frame(pyramid);
                 return report;
             }
@@ -143,6 +180,7 @@ impl Slam {
                 if let Some(created) =
                     self.follow_rest_start(frame, timestamp, previous.as_ref(), &pyramid)
                 {
+                    self.end_seat_frame(&pyramid, timestamp);
                     self.end_frame(pyramid);
                     timings.association_ms = ms(t_assoc);
                     timings.total_ms = ms(start);
@@ -164,6 +202,7 @@ impl Slam {
             // instead of letting the correction drag the map along.
             self.filter.decorrelate_camera();
         }
+        self.add_trial_innovation(&candidates);
         let inlier_flags = self.one_point_ransac(&candidates);
         timings.association_ms = ms(t_assoc);
 

@@ -212,11 +212,37 @@ impl Slam {
             &pairs,
             threshold,
             self.config.start.two_view_iterations,
-            self.config.start.two_view_search,
             &mut self.rng,
         ) else {
             return 0;
         };
+        let alternative = if self.config.start.two_view_search {
+            two_view::searched_alternative(&pairs, &pose, threshold)
+        } else {
+            None
+        };
+        // The rival is this session as it stands before it seats, seated on the other motion.
+        let rival = alternative.is_some().then(|| self.clone());
+        let created = self.seat_on(frame, timestamp, &b, &pairs, &pose);
+        if let (Some(mut rival), Some(alternative)) = (rival, alternative) {
+            if created > 0 && rival.seat_on(frame, timestamp, &b, &pairs, &alternative) > 0 {
+                self.start_trial(rival);
+            }
+        }
+        created
+    }
+
+    /// Seats the filter on a two-view motion when it is well determined (enough inliers,
+    /// enough parallax); returns the number of landmarks created, 0 when it did not seat.
+    fn seat_on(
+        &mut self,
+        frame: &Frame,
+        timestamp: f64,
+        b: &Bootstrap,
+        pairs: &[(Vector3<f64>, Vector3<f64>)],
+        pose: &two_view::RelativePose,
+    ) -> usize {
+        let cam = self.filter.camera().clone();
         let inlier_count = pose.inliers.iter().filter(|&&i| i).count();
         let mut parallax: Vec<f64> = pose
             .parallax
