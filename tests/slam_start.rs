@@ -1,6 +1,7 @@
 //! The two-view start of a hand-held camera that walks sideways while it turns (issue 25):
-//! with `[slam.start] two_view_search` the start tries the searched motion beside the
-//! eight-point one and keeps the searched one here, revising the frames it had reported.
+//! from the defaults (`[slam.start] two_view_search`) the start tries the searched motion
+//! beside the eight-point one and keeps the searched one here, revising the frames it had
+//! reported.
 
 mod common;
 
@@ -59,10 +60,10 @@ fn a_sideways_start_keeps_the_searched_motion() {
         ..SyntheticConfig::for_motion(SyntheticMotion::Walk)
     })
     .unwrap();
-    let (eight_point, none) = ate_percent(&seq, SlamConfig::default());
-    let mut config = SlamConfig::default();
-    config.start.two_view_search = true;
-    let (searched, revised) = ate_percent(&seq, config);
+    let mut eight_point_only = SlamConfig::default();
+    eight_point_only.start.two_view_search = false;
+    let (eight_point, none) = ate_percent(&seq, eight_point_only);
+    let (searched, revised) = ate_percent(&seq, SlamConfig::default());
     eprintln!("walk-7 240x180: eight-point {eight_point:.2}%, trial {searched:.2}% ({revised} frames revised)");
     assert_eq!(none, 0, "without the search nothing is revised");
     assert!(revised > 0, "the trial kept the eight-point motion");
@@ -70,5 +71,76 @@ fn a_sideways_start_keeps_the_searched_motion() {
     assert!(
         searched < 0.5 * eight_point,
         "{searched:.2}% against {eight_point:.2}%"
+    );
+}
+
+/// `steernav slam` rewrites trajectory.txt and the report when the trial keeps the searched
+/// motion: one row per frame, in order, and the trial's frames differ from the eight-point
+/// run's (the same walk, 60 frames).
+#[test]
+fn slam_writes_the_revised_start_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let settings = dir.path().join("walk.toml");
+    std::fs::write(
+        &settings,
+        "[synthetic]\nseed = 7\nwidth = 240\nheight = 180\nsupersample = 3\n",
+    )
+    .unwrap();
+    let seq = dir.path().join("walk");
+    common::run_ok(
+        common::steernav()
+            .args(["slam-synth", "--motion", "walk", "--frames", "60"])
+            .arg("--config")
+            .arg(&settings)
+            .arg("--out")
+            .arg(&seq),
+    );
+    let eight_point_only = dir.path().join("eight.toml");
+    std::fs::write(&eight_point_only, "[slam.start]\ntwo_view_search = false\n").unwrap();
+    let run = |out: &str, extra: &[&std::ffi::OsStr]| {
+        let out = dir.path().join(out);
+        let report = out.join("report.csv");
+        let done = common::run_ok(
+            common::steernav()
+                .arg("--verbose")
+                .args(["slam", "--backend", "cpu"])
+                .arg(&seq)
+                .arg("--out")
+                .arg(&out)
+                .arg("--report")
+                .arg(&report)
+                .args(extra),
+        );
+        let rows = |path: &std::path::Path| -> Vec<String> {
+            std::fs::read_to_string(path)
+                .unwrap()
+                .lines()
+                .skip(1)
+                .map(str::to_owned)
+                .collect()
+        };
+        (
+            rows(&out.join("trajectory.txt")),
+            rows(&report),
+            String::from_utf8_lossy(&done.stderr).into_owned(),
+        )
+    };
+    let (trajectory, report, stderr) = run("trial", &[]);
+    assert!(stderr.contains("keeping the searched"), "{stderr}");
+    assert_eq!(trajectory.len(), 60, "one pose per frame");
+    assert_eq!(report.len(), 60, "one report row per frame");
+    let times: Vec<f64> = trajectory
+        .iter()
+        .map(|l| l.split_whitespace().next().unwrap().parse().unwrap())
+        .collect();
+    assert!(times.windows(2).all(|w| w[0] < w[1]), "{times:?}");
+    let (eight, _, _) = run(
+        "eight",
+        &["--config".as_ref(), eight_point_only.as_os_str()],
+    );
+    let revised = (0..20).filter(|&k| trajectory[k] != eight[k]).count();
+    assert!(
+        revised > 10,
+        "{revised} of the first 20 poses differ from the eight-point run"
     );
 }
