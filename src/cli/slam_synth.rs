@@ -20,6 +20,8 @@ pub enum MotionArg {
     Walk,
     /// A wheeled robot driving and turning in place among furniture.
     Rover,
+    /// A camera on a slider: 1 m of pure sideways translation in a furnished room.
+    Slider,
 }
 
 #[derive(Args)]
@@ -27,14 +29,17 @@ pub struct SlamSynthCmd {
     /// Output folder (TUM RGB-D layout: rgb/, rgb.txt, groundtruth.txt, calib.toml).
     #[arg(long, value_name = "DIR", default_value = "synth-out")]
     out: PathBuf,
-    /// Number of frames [default: 240 for room, 60 for drive, 360 for walk and rover].
+    /// Number of frames [default: 240 for room, 60 for drive, 360 for walk and rover, 87 for
+    /// slider].
     #[arg(long)]
     frames: Option<usize>,
     /// The camera's motion: `room` (a hand-held loop in a bare room, 30 Hz, 320×240), `drive`
     /// (a car at 10 m/s and 10 Hz with turns, scene depths 3–50 m), `walk` (a person at
     /// 0.3–1 m/s through two furnished rooms, looking around at up to 60°/s, 30 Hz, 640×480,
     /// with motion blur, noise and auto-exposure) or `rover` (a robot 0.3 m high driving and
-    /// turning in place among furniture, 15 Hz, 640×480). Each has its own defaults.
+    /// turning in place among furniture, 15 Hz, 640×480) or `slider` (1 m of pure sideways
+    /// translation in a furnished room, 30 Hz, 240×180 with barrel distortion). Each has its
+    /// own defaults.
     #[arg(long, value_enum, default_value_t = MotionArg::Room)]
     motion: MotionArg,
     /// Settings file whose [synthetic] table (width, height, fov_deg, k1, fps, room,
@@ -56,6 +61,7 @@ pub fn run(cmd: SlamSynthCmd) -> anyhow::Result<ExitCode> {
         MotionArg::Drive => SyntheticMotion::Drive,
         MotionArg::Walk => SyntheticMotion::Walk,
         MotionArg::Rover => SyntheticMotion::Rover,
+        MotionArg::Slider => SyntheticMotion::Slider,
     };
     let mut config = SyntheticConfig::for_motion(motion);
     if let Some(path) = &cmd.config {

@@ -22,6 +22,7 @@ pub(crate) mod klt;
 mod landmarks;
 pub(crate) mod motion;
 pub mod refine;
+pub(crate) mod resect;
 pub(crate) mod rotation;
 pub(crate) mod tracker;
 pub(crate) mod two_view;

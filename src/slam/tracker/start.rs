@@ -14,6 +14,7 @@ use crate::features::Detector;
 use crate::image::Frame;
 use crate::slam::ekf::Seat;
 use crate::slam::klt::{self, Pyramid};
+use crate::slam::resect::resect;
 use crate::slam::rotation::{self, Quat};
 use crate::slam::two_view;
 
@@ -41,7 +42,16 @@ pub(super) struct Bootstrap {
     /// Pixels in the reference frame and where KLT has followed them to.
     start: Vec<Vector2<f64>>,
     current: Vec<Vector2<f64>>,
+    /// Timestamp of `current`.
+    current_time: f64,
+    /// The frames between the reference and `current`: their timestamps and where the points
+    /// were in each (same order as `start`), to place them once two views fix the points.
+    between: Vec<(f64, Vec<Vector2<f64>>)>,
 }
+
+/// Frames between the reference and the current one kept for placing them afterwards; the
+/// later ones keep their reported pose.
+const MAX_BETWEEN: usize = 150;
 
 impl Slam {
     fn reference(&self) -> Option<&Bootstrap> {
@@ -75,7 +85,7 @@ impl Slam {
         let mut timings = SlamTimings::default();
         let mut created = 0;
         let t = Instant::now();
-        let (followed, _) = self.follow_bootstrap(previous, pyramid);
+        let (followed, _) = self.follow_bootstrap(previous, pyramid, timestamp);
         timings.association_ms = ms(t);
         if followed >= self.config.start.min_points {
             let t = Instant::now();
@@ -123,6 +133,8 @@ impl Slam {
             orientation: self.filter.orientation(),
             start: points.clone(),
             current: points,
+            current_time: timestamp,
+            between: Vec::new(),
         };
         self.phase = match &self.phase {
             Phase::AtRest(_) => Phase::AtRest(reference),
@@ -132,11 +144,20 @@ impl Slam {
 
     /// Follows the start-up points from `previous` into `current` by KLT, dropping those it
     /// loses. Returns how many are left and their median displacement in pixels.
-    fn follow_bootstrap(&mut self, previous: Option<&Pyramid>, current: &Pyramid) -> (usize, f64) {
+    fn follow_bootstrap(
+        &mut self,
+        previous: Option<&Pyramid>,
+        current: &Pyramid,
+        timestamp: f64,
+    ) -> (usize, f64) {
         let params = self.config.klt;
         let (Some(b), Some(from)) = (self.reference_mut(), previous) else {
             return (0, 0.0);
         };
+        if b.current_time > b.timestamp && b.between.len() < MAX_BETWEEN {
+            b.between.push((b.current_time, b.current.clone()));
+        }
+        b.current_time = timestamp;
         let moved: Vec<Option<Vector2<f64>>> = b
             .current
             .par_iter()
@@ -149,11 +170,17 @@ impl Slam {
                 displacements.push((z - b.current[i]).norm());
                 b.start[kept] = b.start[i];
                 b.current[kept] = z;
+                for (_, pixels) in &mut b.between {
+                    pixels[kept] = pixels[i];
+                }
                 kept += 1;
             }
         }
         b.start.truncate(kept);
         b.current.truncate(kept);
+        for (_, pixels) in &mut b.between {
+            pixels.truncate(kept);
+        }
         displacements.sort_by(f64::total_cmp);
         (kept, displacements.get(kept / 2).copied().unwrap_or(0.0))
     }
@@ -170,7 +197,7 @@ impl Slam {
         previous: Option<&Pyramid>,
         current: &Pyramid,
     ) -> Option<usize> {
-        let (followed, median_step) = self.follow_bootstrap(previous, current);
+        let (followed, median_step) = self.follow_bootstrap(previous, current, timestamp);
         if followed < self.config.start.min_points {
             self.restart_bootstrap(current, timestamp);
             return None;
@@ -181,6 +208,7 @@ impl Slam {
         if median_step < rest_step {
             // Still at rest: the motion, when it comes, starts from here.
             b.start.clone_from(&b.current);
+            b.between.clear();
             b.timestamp = timestamp;
             b.position = r;
             b.orientation = q;
@@ -315,9 +343,77 @@ impl Slam {
                 (b.current[i], rho, sigma)
             })
             .collect();
+        let initialising = matches!(self.phase, Phase::Starting(_));
+        self.revised = self.place_between(b, pose, scale, initialising);
         self.phase = Phase::Tracking;
         let visible = self.visible_pixels();
         let limit = (2 * self.config.map.target_visible).saturating_sub(visible.len());
         self.add_at_free_cells(frame, &visible, inliers, limit, |_, _| None)
+    }
+
+    /// The frames between the reference and the seat were reported at the reference pose (or
+    /// at rest): once seated, each is placed by resection on the triangulated inliers it saw,
+    /// from the pose interpolated in time between the reference and the seat (kept where the
+    /// resection fails). Their reports, for [`Slam::take_revised`].
+    fn place_between(
+        &self,
+        b: &Bootstrap,
+        pose: &two_view::RelativePose,
+        scale: f64,
+        initialising: bool,
+    ) -> Vec<FrameReport> {
+        let cam = self.filter.camera();
+        let normalised = |z: &Vector2<f64>| {
+            let (ray, _) = cam.back_project(*z);
+            ray / ray.z
+        };
+        let (r, q) = (self.filter.position(), self.filter.orientation());
+        let rot = rotation::matrix(&q);
+        let seen: Vec<usize> = (0..pose.inliers.len())
+            .filter(|&i| pose.inliers[i])
+            .collect();
+        let points: Vec<Vector3<f64>> = seen
+            .iter()
+            .map(|&i| r + rot * (normalised(&b.current[i]) * (pose.depths[i] * scale)))
+            .collect();
+        let turn = rotation::to_rotation_vector(&rotation::from_matrix(
+            &(rotation::matrix(&b.orientation).transpose() * rot),
+        ));
+        let span = (b.current_time - b.timestamp).max(1e-9);
+        b.between
+            .iter()
+            .map(|(t, pixels)| {
+                let f = ((t - b.timestamp) / span).clamp(0.0, 1.0);
+                let guess = (
+                    b.position + (r - b.position) * f,
+                    rotation::multiply(
+                        &b.orientation,
+                        &rotation::from_rotation_vector(&(turn * f)),
+                    ),
+                );
+                let rays: Vec<(f64, f64)> = seen
+                    .iter()
+                    .map(|&i| {
+                        let n = normalised(&pixels[i]);
+                        (n.x, n.y)
+                    })
+                    .collect();
+                let (c, o) = resect(
+                    &points,
+                    &rays,
+                    guess.0,
+                    guess.1,
+                    cam.fx,
+                    2.0 * self.config.filter.pixel_sigma,
+                    self.config.ransac.threshold,
+                )
+                .unwrap_or(guess);
+                FrameReport {
+                    position: [c.x, c.y, c.z],
+                    orientation: [o[0], o[1], o[2], o[3]],
+                    ..self.report(*t, SlamTimings::default(), 0, initialising)
+                }
+            })
+            .collect()
     }
 }

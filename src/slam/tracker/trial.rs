@@ -115,7 +115,8 @@ impl Slam {
         );
         if replace {
             *self = *trial.rival;
-            self.revised = trial.reports;
+            // The rival's placing of the frames before the seat, then the trial's frames.
+            self.revised.extend(trial.reports);
             return Ok(FrameReport { timings, ..theirs });
         }
         Ok(FrameReport { timings, ..ours })

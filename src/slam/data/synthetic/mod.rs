@@ -48,6 +48,11 @@ pub enum SyntheticMotion {
     /// turning centre: straight legs at up to `speed` m/s and turns in place at up to
     /// `amplitude` rad/s, the first a half turn.
     Rover,
+    /// A camera on a slider: pure translation of `amplitude` metres sideways along its x axis,
+    /// starting and stopping smoothly, at `camera_height` above the floor 1 m in front of one
+    /// wall of a furnished room, looking across it (seeded yaw within ±0.3 rad, a little
+    /// down), no rotation.
+    Slider,
 }
 
 /// Parameters of a synthetic sequence.
@@ -145,7 +150,10 @@ impl SyntheticConfig {
     ///   ±1.2 rad over 10 s, 8 ms exposure, noise of 2 grey levels, auto-exposure 0.03;
     /// - rover: 640×480 at 15 Hz, 24 s at up to 0.4 m/s, turning at up to 0.8 rad/s, in a
     ///   room of 6 × 8 m with 12 pieces of furniture, the camera 0.3 m high, 10 ms exposure,
-    ///   the same noise and auto-exposure.
+    ///   the same noise and auto-exposure;
+    /// - slider: 240×180 with barrel distortion (k1 = −0.15) at 30 Hz, 87 frames, 1 m of
+    ///   sideways travel in a room of 6 × 6 m with 12 pieces of furniture, the camera 1 m
+    ///   high, 4 ms exposure, the same noise and auto-exposure.
     pub fn for_motion(motion: SyntheticMotion) -> Self {
         let indoors = Self {
             motion,
@@ -180,6 +188,20 @@ impl SyntheticConfig {
                 speed: 0.65,
                 camera_height: 1.5,
                 period: 10.0,
+                ..indoors
+            },
+            SyntheticMotion::Slider => Self {
+                width: 240,
+                height: 180,
+                k1: -0.15,
+                frames: 87,
+                fps: 30.0,
+                room: [3.0, 1.4, 3.0],
+                clutter: 12,
+                amplitude: 1.0,
+                speed: 0.0,
+                camera_height: 1.0,
+                exposure: 0.004,
                 ..indoors
             },
             SyntheticMotion::Rover => Self {

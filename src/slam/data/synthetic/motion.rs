@@ -30,7 +30,41 @@ pub(super) fn trajectory(config: &SyntheticConfig, rate: f64, count: usize) -> V
         SyntheticMotion::Drive => drive(config, rate, count),
         SyntheticMotion::Walk => sample(&walk_track(config, duration(rate, count)), rate, count),
         SyntheticMotion::Rover => sample(&rover_track(config, duration(rate, count)), rate, count),
+        SyntheticMotion::Slider => slider(config, rate, count),
     }
+}
+
+/// The slider: s(t) = L·(1 − cos(πt/T))/2 along the camera's x axis over the sequence's
+/// length T (at the frame rate; any other rate samples the same curve), orientation fixed.
+fn slider(config: &SyntheticConfig, rate: f64, count: usize) -> Vec<Pose> {
+    let mut rng = Rng(config.seed.wrapping_mul(0xA24B_AED4_963E_E407) ^ 0x511D);
+    let yaw = (rng.unit_f64() - 0.5) * 0.6;
+    let point = TrackPoint {
+        position: Vector3::zeros(),
+        yaw,
+        pitch: -0.1,
+        roll: 0.0,
+    };
+    let orientation = orientation(&point);
+    let along = rotation::matrix(&orientation) * Vector3::x();
+    let length = config.amplitude;
+    let span = (config.frames.saturating_sub(1) as f64 / config.fps).max(1e-9);
+    let start = Vector3::new(
+        -0.5 * length * along.x,
+        config.room[1] - config.camera_height,
+        1.0 - config.room[2],
+    );
+    (0..count)
+        .map(|k| {
+            let t = k as f64 / rate;
+            let s = 0.5 * length * (1.0 - (PI * (t / span).min(1.0)).cos());
+            Pose {
+                timestamp: t,
+                position: start + along * s,
+                orientation,
+            }
+        })
+        .collect()
 }
 
 fn duration(rate: f64, count: usize) -> f64 {
@@ -429,6 +463,23 @@ mod tests {
             fastest < 1.15 && fastest > 0.5,
             "fastest turn {fastest} rad/s"
         );
+    }
+
+    #[test]
+    fn the_slider_moves_one_metre_sideways_without_turning() {
+        let config = SyntheticConfig::for_motion(SyntheticMotion::Slider);
+        let poses = trajectory(&config, config.fps, config.frames);
+        let first = &poses[0];
+        let last = poses.last().expect("poses");
+        let travel = last.position - first.position;
+        assert!((travel.norm() - config.amplitude).abs() < 1e-9, "{travel}");
+        let sideways = rotation::matrix(&first.orientation) * Vector3::x();
+        assert!(travel.normalize().dot(&sideways) > 1.0 - 1e-12);
+        assert!(poses.iter().all(|p| p.orientation == first.orientation));
+        // Starts and stops at rest.
+        let step = |a: &Pose, b: &Pose| (b.position - a.position).norm();
+        let middle = config.frames / 2;
+        assert!(step(&poses[0], &poses[1]) < 0.05 * step(&poses[middle], &poses[middle + 1]));
     }
 
     #[test]
