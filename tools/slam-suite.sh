@@ -8,7 +8,8 @@
 # Sequences:
 # - generated: the room (30 Hz) for seeds 1 2 3 7 11, the drive (10 Hz) for seeds 1 2 3 7 11,
 #   the drive at 5 Hz for seeds 7 and 3, and (with INDOOR=1, the default) the walk through
-#   two furnished rooms (30 Hz, 640x480) and the rover (15 Hz, 640x480) for seeds 1 2 3 7 11;
+#   two furnished rooms (30 Hz, 640x480), the rover (15 Hz, 640x480) and the slider (1 m of
+#   pure sideways travel, 30 Hz, 240x180 with barrel distortion) for seeds 1 2 3 7 11;
 # - real, when KITTI_CLIPS_DIR is given (a folder of KITTI odometry clips): each clip as is,
 #   from its 16th frame, at 5 Hz (even and odd frames), played backwards, and standing still
 #   on its first frame for 1.5 s before it drives off.
@@ -71,6 +72,7 @@ if [ "${INDOOR:-1}" = 1 ]; then
   for seed in 1 2 3 7 11; do
     synth "rover-$seed" rover "$seed" "" && sequences+=("rover-$seed|$vehicle")
   done
+  for seed in 1 2 3 7 11; do synth "slider-$seed" slider "$seed" "" && sequences+=("slider-$seed|"); done
 fi
 if [ -n "$clips" ]; then
   for src in "$clips"/*/; do
