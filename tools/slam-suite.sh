@@ -42,7 +42,10 @@ synth() { # name motion seed fps
   [ -n "$4" ] && printf 'fps = %s\n' "$4" >>"$cfg"
   local frames=()
   [ "$2" = drive ] && [ -n "$4" ] && frames=(--frames 30)
-  "$bin" slam-synth --out "$dir" --motion "$2" --config "$cfg" "${frames[@]}" >/dev/null
+  # Generated aside and moved into place: an interrupted run leaves no half sequence behind.
+  rm -rf "$dir.part" "$dir"
+  "$bin" slam-synth --out "$dir.part" --motion "$2" --config "$cfg" "${frames[@]}" >/dev/null
+  mv "$dir.part" "$dir"
 }
 
 # A KITTI clip made of the frames of $src listed (0-based) on stdin, in that order.
