@@ -58,8 +58,8 @@ fn ate_percent_as_reported(seq: &SyntheticSequence, config: SlamConfig) -> ((f64
 }
 
 /// The generated walk, seed 7, at 240×180 (three rays a side per pixel), 5 s: the eight-point
-/// start direction is 40–50° off and the filter keeps the error (measured 8.25% of the path);
-/// the trial keeps the searched motion (measured 1.44%) and revises its 30 frames.
+/// start direction is 40–50° off and the filter keeps the error (measured 8.20% of the path);
+/// the trial keeps the searched motion (measured 1.40%) and revises its 30 frames.
 #[test]
 fn a_sideways_start_keeps_the_searched_motion() {
     let seq = SyntheticSequence::new(SyntheticConfig {
@@ -76,8 +76,13 @@ fn a_sideways_start_keeps_the_searched_motion() {
     let (eight_point, none) = ate_percent(&seq, eight_point_only);
     let (searched, revised) = ate_percent(&seq, SlamConfig::default());
     eprintln!("walk-7 240x180: eight-point {eight_point:.2}%, trial {searched:.2}% ({revised} frames revised)");
-    assert_eq!(none, 0, "without the search nothing is revised");
-    assert!(revised > 0, "the trial kept the eight-point motion");
+    // Both place the frames before the seat; the trial's frames are revised only when the
+    // searched motion is kept.
+    let trial = SlamConfig::default().start.trial_frames;
+    assert!(
+        revised >= none + trial,
+        "{revised} frames revised against {none} without the search: the trial kept the eight-point motion"
+    );
     assert!(searched <= 2.0, "ATE {searched:.2}% of the path");
     assert!(
         searched < 0.5 * eight_point,
