@@ -122,10 +122,11 @@ impl Slam {
     }
 
     /// Reports of earlier frames that the session has revised since the last call, oldest
-    /// first; almost always empty. The start can try two motions side by side for a few
-    /// frames (`[slam.start] two_view_search`), reporting one; when the other wins, the
-    /// frames of the trial are reported again here, with its poses. A caller that keeps a
-    /// trajectory replaces those frames (same timestamps).
+    /// first; empty on most frames. Two moments revise: when the start seats, the frames it
+    /// reported while it waited for two views get their resected poses; and the start can
+    /// try two motions side by side for a few frames (`[slam.start] two_view_search`),
+    /// reporting one; when the other wins, the frames of the trial are reported again with
+    /// its poses. A caller that keeps a trajectory replaces those frames (same timestamps).
     pub fn take_revised(&mut self) -> Vec<FrameReport> {
         std::mem::take(&mut self.revised)
     }

@@ -11,7 +11,9 @@
 //! hypothesis's matches, and the searched motion replaces the eight-point one only when its
 //! total is below [`REPLACE_BELOW`] of the eight-point's. The eight-point motion is right for
 //! the forward starts of vehicles, where the two totals come out alike. Meanwhile each frame
-//! reports the eight-point hypothesis, with the time of both.
+//! reports the eight-point hypothesis, with the time of both. The ratio separates the
+//! measured starts only narrowly, and misses the generated sliders, where the searched
+//! motion is right (docs/SLAM.md, "The start's trial" and "The wait placed").
 
 use super::report::{FrameReport, SlamTimings};
 use super::Slam;
