@@ -90,8 +90,8 @@ impl Slam {
         let report = py
             .detach(|| slam.process(&frame, t, None, &detector))
             .map_err(py_err)?;
-        // The start may revise the frames of its trial (`take_revised`): the trajectory
-        // takes their new poses.
+        // The start may revise the frames of its wait and of its trial (`take_revised`): the
+        // trajectory takes their new poses.
         for earlier in self.inner.take_revised() {
             if let Some(row) = self
                 .trajectory

@@ -59,9 +59,9 @@ pub struct SlamCmd {
     #[arg(long, conflicts_with_all = ["odometry", "odom_topic"])]
     wheeled: bool,
     /// Output directory: the estimated trajectory goes to DIR/trajectory.txt, written frame by
-    /// frame (see --format). When the start keeps the motion it tried beside the one it
-    /// reported ([slam.start] two_view_search), the file (and --report's) is written again
-    /// with the trial's frames revised.
+    /// frame (see --format). When the start revises frames it reported (those it waited
+    /// through before it seated, or a trial of two motions that the unreported one won,
+    /// [slam.start] two_view_search), the file (and --report's) is written again.
     #[arg(long, value_name = "DIR", default_value = "slam-out")]
     out: PathBuf,
     /// Trajectory format: `tum` (t tx ty tz qx qy qz qw) or `kitti` (the 3×4 camera-to-world
@@ -232,7 +232,8 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
         };
         let revised = slam.take_revised();
         if !revised.is_empty() {
-            // The start kept the motion it had not reported: its frames are written again.
+            // The start placed its wait, or kept the motion it had not reported: those frames
+            // are written again.
             let (t, f) = revise(
                 revised,
                 &mut reports,
