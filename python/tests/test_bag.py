@@ -173,15 +173,20 @@ def test_slam_results_as_mcap(cli_exe, sequence, tmp_path):
     poses = [m for m in msgs if m[0] == "/steernav/pose"]
     assert len(poses) == len(rows) == 60
     assert {m[1] for m in poses} == {"geometry_msgs/msg/PoseStamped"}
-    for (_, _, log_time, p), row in zip(poses, rows):
+    same = lambda p, row: [round(v, 6) for v in (p.position.x, p.orientation.x, p.orientation.w)] == [
+        round(float(row[1]), 6), round(float(row[4]), 6), round(float(row[7]), 6)]
+    for k, ((_, _, log_time, p), row) in enumerate(zip(poses, rows)):
         t = float(row[0])
         assert abs(p.header.stamp.sec + p.header.stamp.nanosec * 1e-9 - t) < 1e-9
         assert abs(log_time * 1e-9 - t) < 1e-6 and p.header.frame_id == "map"
-        q = p.pose.orientation
-        assert [round(v, 6) for v in (p.pose.position.x, q.x, q.w)] == [
-            round(float(row[1]), 6), round(float(row[4]), 6), round(float(row[7]), 6)]
+        # The stream sends each pose as reported; trajectory.txt takes the start's revisions
+        # (its wait, and a 30-frame trial), so the two agree once those are over.
+        if k >= 40:
+            assert same(p.pose, row), k
     (path,) = [m for m in msgs if m[0] == "/steernav/path"]
     assert path[1] == "nav_msgs/msg/Path" and len(path[3].poses) == 60
+    # The final path is the revised trajectory, every frame.
+    assert all(same(p.pose, row) for p, row in zip(path[3].poses, rows))
     (cloud,) = [m for m in msgs if m[0] == "/steernav/landmarks"]
     assert cloud[1] == "sensor_msgs/msg/PointCloud2"
     assert [f.name for f in cloud[3].fields] == ["x", "y", "z"]
