@@ -8,7 +8,7 @@
 //! full F is the identity outside it). The wheeled model adds [`constraint`]: pseudo-
 //! measurements of the camera block that the filter takes after every prediction.
 
-use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::rotation::{self, Quat};
@@ -366,6 +366,32 @@ fn wheeled_step(camera: &DVector<f64>, dt: f64) -> DVector<f64> {
     next.fixed_rows_mut::<3>(7)
         .copy_from(&(rotation::matrix(&q_next) * u));
     next
+}
+
+/// One Levenberg–Marquardt step: the normal equations damped by `lambda` (on their
+/// diagonal, Marquardt's scaling) are solved and the step offered to `accept`, which keeps it
+/// when it lowers the cost. λ shrinks tenfold after a kept step and grows tenfold after each
+/// refused one; `false` when none was kept before λ reached 1e8.
+pub(super) fn levenberg_marquardt_step<const N: usize>(
+    normal: &SMatrix<f64, N, N>,
+    gradient: &SVector<f64, N>,
+    lambda: &mut f64,
+    mut accept: impl FnMut(&SVector<f64, N>) -> bool,
+) -> bool {
+    while *lambda < 1e8 {
+        let mut damped = *normal;
+        for k in 0..N {
+            damped[(k, k)] += *lambda * normal[(k, k)].max(1e-12);
+        }
+        if let Some(step) = damped.cholesky().map(|c| c.solve(&(-gradient))) {
+            if accept(&step) {
+                *lambda = (*lambda * 0.1).max(1e-9);
+                return true;
+            }
+        }
+        *lambda *= 10.0;
+    }
+    false
 }
 
 /// The Jacobian of `f` at `x` by central differences (steps of 10⁻⁶ relative to each entry,

@@ -6,7 +6,7 @@
 
 use nalgebra::{DVector, Matrix3, Vector3};
 
-use super::motion::central_jacobian;
+use super::motion::{central_jacobian, levenberg_marquardt_step};
 use super::rotation::{self, Quat};
 
 /// Levenberg–Marquardt iterations.
@@ -83,26 +83,17 @@ pub(crate) fn resect(
             normal += w * jr * jr.transpose();
             gradient += w * res[row] * jr;
         }
-        let mut improved = false;
-        while lambda < 1e8 {
-            let mut damped = normal;
-            for k in 0..6 {
-                damped[(k, k)] += lambda * normal[(k, k)].max(1e-12);
+        let improved = levenberg_marquardt_step(&normal, &gradient, &mut lambda, |step| {
+            let step = DVector::from_iterator(6, step.iter().copied());
+            let (rn, cn) = moved(&r, &c, &step);
+            let res_n = residuals(&rn, &cn);
+            let (weights_n, cost_n) = cost_of(&res_n);
+            let better = cost_n < cost;
+            if better {
+                (r, c, res, weights, cost) = (rn, cn, res_n, weights_n, cost_n);
             }
-            if let Some(step) = damped.cholesky().map(|ch| ch.solve(&(-gradient))) {
-                let step = DVector::from_iterator(6, step.iter().copied());
-                let (rn, cn) = moved(&r, &c, &step);
-                let res_n = residuals(&rn, &cn);
-                let (weights_n, cost_n) = cost_of(&res_n);
-                if cost_n < cost {
-                    (r, c, res, weights, cost) = (rn, cn, res_n, weights_n, cost_n);
-                    lambda = (lambda * 0.1).max(1e-9);
-                    improved = true;
-                    break;
-                }
-            }
-            lambda *= 10.0;
-        }
+            better
+        });
         if !improved {
             break;
         }

@@ -19,7 +19,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix5, Rotation3, SVector, Vector3};
 
-use super::motion::central_jacobian;
+use super::motion::{central_jacobian, levenberg_marquardt_step};
 use super::rotation::skew;
 use super::two_view::{sampson_residual, Correspondence};
 
@@ -154,25 +154,16 @@ impl Problem<'_> {
             let gradient: SVector<f64, 5> = (weighted.transpose() * &residuals)
                 .fixed_view::<5, 1>(0, 0)
                 .into();
-            let mut improved = false;
-            while lambda < 1e8 {
-                let mut damped = normal;
-                for k in 0..5 {
-                    damped[(k, k)] += lambda * normal[(k, k)].max(1e-12);
+            let improved = levenberg_marquardt_step(&normal, &gradient, &mut lambda, |step| {
+                let (rn, tn) = moved(&r, &t, step);
+                let residuals_n = self.residuals(&rn, &tn);
+                let (weights_n, cost_n) = Self::robust(&residuals_n, loss);
+                let better = cost_n < cost;
+                if better {
+                    (r, t, residuals, weights, cost) = (rn, tn, residuals_n, weights_n, cost_n);
                 }
-                if let Some(step) = damped.cholesky().map(|c| c.solve(&(-gradient))) {
-                    let (rn, tn) = moved(&r, &t, &step);
-                    let residuals_n = self.residuals(&rn, &tn);
-                    let (weights_n, cost_n) = Self::robust(&residuals_n, loss);
-                    if cost_n < cost {
-                        (r, t, residuals, weights, cost) = (rn, tn, residuals_n, weights_n, cost_n);
-                        lambda = (lambda * 0.1).max(1e-9);
-                        improved = true;
-                        break;
-                    }
-                }
-                lambda *= 10.0;
-            }
+                better
+            });
             if !improved {
                 break;
             }
