@@ -5,7 +5,9 @@
 
 mod common;
 
-use nalgebra::{DMatrix, SymmetricEigen, Vector3, Vector4};
+use common::pose_of;
+
+use nalgebra::{DMatrix, SymmetricEigen, Vector3};
 use steernav::low_level::motion::{relative_motion, MotionModel, OdometryStep};
 use steernav::low_level::synth::Rng;
 use steernav::slam::camera::PinholeCamera;
@@ -17,14 +19,6 @@ use steernav::{Backend, Detector, DetectorConfig, Frame};
 
 fn cpu_detector() -> Detector {
     common::cpu_detector(&DetectorConfig::default())
-}
-
-fn pose_of(r: &steernav::slam::FrameReport) -> Pose {
-    Pose {
-        timestamp: r.timestamp,
-        position: r.position.into(),
-        orientation: Vector4::from(r.orientation),
-    }
 }
 
 fn assert_covariance_is_consistent(p: &DMatrix<f64>) {

@@ -5,20 +5,13 @@
 
 mod common;
 
-use nalgebra::Vector4;
+use common::pose_of;
+
 use steernav::slam::config::SlamConfig;
 use steernav::slam::data::synthetic::{SyntheticConfig, SyntheticMotion, SyntheticSequence};
 use steernav::slam::data::trajectory::{evaluate, Pose};
 use steernav::slam::Slam;
 use steernav::DetectorConfig;
-
-fn pose_of(r: &steernav::slam::FrameReport) -> Pose {
-    Pose {
-        timestamp: r.timestamp,
-        position: r.position.into(),
-        orientation: Vector4::from(r.orientation),
-    }
-}
 
 /// Runs `config` over `seq` as a caller keeping a trajectory does: revised frames replace
 /// the ones reported before. Returns the ATE in % of the path and the frames revised.

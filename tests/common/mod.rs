@@ -132,3 +132,12 @@ pub fn magnified(frame: &Frame, z: f64) -> Frame {
     }
     Frame::from_rgb(ow as u32, oh as u32, rgb).unwrap()
 }
+
+/// The pose a SLAM frame reports, as a trajectory pose.
+pub fn pose_of(r: &steernav::slam::FrameReport) -> steernav::slam::data::trajectory::Pose {
+    steernav::slam::data::trajectory::Pose {
+        timestamp: r.timestamp,
+        position: r.position.into(),
+        orientation: nalgebra::Vector4::from(r.orientation),
+    }
+}
