@@ -1,5 +1,5 @@
 // The steered descriptor: one workgroup per keypoint. The patch around the keypoint is
-// smoothed at its sigma_D (rows, then columns, borders clamped) on the plane it reads (its
+// smoothed to its scale, the total blur (rows, then columns, borders clamped) on the plane it reads (its
 // pyramid level; every level of a frame lies in `gray`), differentiated, and read in
 // the frame of its dominant first-order steered direction: a 36-bin orientation histogram,
 // then 4x4 cells x 8 directions with trilinear weights, normalised, clipped at 0.2 and
@@ -37,8 +37,8 @@ const CELLS: u32 = 4u;
 const DIRECTIONS: u32 = 8u;
 const LEN: u32 = 128u;
 const BINS: u32 = 36u;
-const CELL_SIGMAS: f32 = 5.0;
-const ORIENTATION_SIGMAS: f32 = 4.0;
+const CELL_SIGMAS: f32 = 4.1;
+const ORIENTATION_SIGMAS: f32 = 3.3;
 const CLIP: f32 = 0.2;
 const TAU: f32 = 6.2831855;
 

@@ -33,7 +33,7 @@ fn bless() -> bool {
     std::env::var_os("STEERNAV_BLESS").is_some_and(|v| v == "1")
 }
 
-/// (x, y, σ_D, response) of each keypoint, as the golden file holds them.
+/// (x, y, scale, response) of each keypoint, as the golden file holds them.
 type Row = [f32; 4];
 
 #[test]

@@ -6,6 +6,7 @@ mod common;
 use common::magnified;
 
 use steernav::features::{DetectorConfig, Keypoint};
+use steernav::low_level::harris::plan::{detection_scale, total_scale};
 use steernav::low_level::synth::textured_scene;
 
 /// |log2(scale ratio / z)| of every keypoint of `a` whose magnified position has a keypoint
@@ -40,8 +41,11 @@ fn keypoint_scales_follow_a_zoom_between_the_sampled_scales() {
     let zoomed = magnified(&frame, z as f64);
     let a = detector.detect(&frame).unwrap().keypoints;
     let b = detector.detect(&zoomed).unwrap().keypoints;
-    // The scales rounded to the sampled ones: what the keypoints carried before the offset.
-    let sampled = |s: f32| step.powf((s / config.sigma0).log(step).round()) * config.sigma0;
+    // The scales rounded to the sampled σ_D: what the keypoints carried before the offset.
+    let sampled = |s: f32| {
+        let sigma_d = detection_scale(s);
+        total_scale(step.powf((sigma_d / config.sigma0).log(step).round()) * config.sigma0)
+    };
     let continuous = scale_errors(&a, &b, z, |s| s);
     let rounded = scale_errors(&a, &b, z, sampled);
     println!("{} of {}", continuous.len(), a.len());

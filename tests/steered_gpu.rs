@@ -7,6 +7,7 @@
 
 mod common;
 
+use steernav::low_level::harris::plan::detection_scale;
 use steernav::low_level::steered::{describe_steered, GpuSteered};
 use steernav::low_level::synth::textured_scene;
 
@@ -82,7 +83,7 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
             .find(|b| (a.x - b.x).abs() < 1e-3 && (a.y - b.y).abs() < 1e-3 && a.scale == b.scale)
         {
             pairs += 1;
-            on_levels += usize::from(a.scale >= 2.0);
+            on_levels += usize::from(detection_scale(a.scale) >= 2.0);
             let d = steernav::low_level::steered::cpu::distance(&a.descriptor, &b.descriptor);
             if d < 1e-2 {
                 agree += 1;

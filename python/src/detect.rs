@@ -17,7 +17,7 @@ pub(crate) struct Keypoints {
     /// (K, 2) float32: x, y in pixels, pixel centres at integers.
     #[pyo3(get)]
     xy: Py<PyArray2<f32>>,
-    /// (K,) float32: σ_D of the dominant scale.
+    /// (K,) float32: the characteristic scale, √(σ_D² + 0.7²) (`Keypoint::scale`).
     #[pyo3(get)]
     scale: Py<PyArray1<f32>>,
     /// (K,) float32: dominant steered orientation, radians in [0, π).

@@ -17,7 +17,8 @@ class Keypoints:
     xy: npt.NDArray[np.float32]
     """(K, 2): x, y in pixels, pixel centres at integers, x right, y down."""
     scale: npt.NDArray[np.float32]
-    """(K,): σ_D of the scale dominating the keypoint's cluster, pixels."""
+    """(K,): characteristic scale in pixels, sqrt(σ_D² + 0.7²): the σ_D of the scale dominating
+    the keypoint's cluster with the camera image's own blur, the total that follows a zoom."""
     angle: npt.NDArray[np.float32]
     """(K,): dominant steered orientation, radians in [0, π)."""
     response: npt.NDArray[np.float32]

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::config::{DescriptorKind, DetectorConfig};
 use super::descriptor::describe;
-use super::harris::plan::{descriptor_level, level_blur};
+use super::harris::plan::{descriptor_level, detection_scale, plane_blur, total_scale};
 use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
@@ -373,10 +373,9 @@ impl Detector {
         };
         let top = pyramid.levels() as u32 - 1;
         let on_level = |k: &Keypoint| {
-            let level = descriptor_level(k.scale).min(top);
+            let level = descriptor_level(detection_scale(k.scale)).min(top);
             let f = (1u32 << level) as f32;
-            let blur = level_blur(level) / f;
-            (level, (k.x / f, k.y / f, k.scale / f), blur)
+            (level, (k.x / f, k.y / f, k.scale / f), plane_blur(level))
         };
         match (&self.gpu_steered, backend) {
             (Some(g), Backend::Gpu) => {
@@ -387,7 +386,7 @@ impl Detector {
                             gray,
                             width: lw as u32,
                             height: lh as u32,
-                            prior_blur: level_blur(level) / (1u32 << level) as f32,
+                            prior_blur: plane_blur(level),
                         }
                     })
                     .collect();
@@ -440,8 +439,10 @@ impl Detector {
             .map(|c| Keypoint {
                 x: c.x,
                 y: c.y,
-                scale: self.plan.scales[c.scale_index].sigma_d
-                    * self.plan.config.scale_step.powf(c.scale_offset),
+                scale: total_scale(
+                    self.plan.scales[c.scale_index].sigma_d
+                        * self.plan.config.scale_step.powf(c.scale_offset),
+                ),
                 angle: self.plan.orientations[c.orientation_index],
                 response: c.response,
                 descriptor: Vec::new(),

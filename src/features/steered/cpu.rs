@@ -8,6 +8,7 @@ use super::{
     fast_atan2, floor, nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS,
     CLIP, DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
 };
+use crate::features::harris::plan::IMAGE_BLUR;
 use crate::features::steerable::Kernel1d;
 
 /// The image around one keypoint, smoothed at its σ_D, as the magnitude and direction of its
@@ -112,8 +113,9 @@ fn gaussian_factors(offsets: &[f32], sigma: f32) -> Vec<f32> {
         .collect()
 }
 
-/// The steered descriptor of a keypoint at (x, y) with differentiation scale `sigma` (σ_D,
-/// pixels) on a luminance plane.
+/// The steered descriptor of a keypoint at (x, y) of scale `sigma` (pixels, a
+/// [`crate::Keypoint::scale`]: the total blur) on a luminance plane taken to carry the camera's
+/// own blur ([`crate::low_level::harris::plan::IMAGE_BLUR`]).
 pub fn describe_steered(
     gray: &[f32],
     width: usize,
@@ -122,11 +124,12 @@ pub fn describe_steered(
     y: f32,
     sigma: f32,
 ) -> Steered {
-    describe_steered_blurred(gray, width, height, (x, y, sigma), 0.0)
+    describe_steered_blurred(gray, width, height, (x, y, sigma), IMAGE_BLUR)
 }
 
-/// [`describe_steered`] on a plane that already carries a Gaussian blur of `prior_blur`
-/// pixels (a pyramid level): the patch is smoothed by what is missing to reach `sigma`.
+/// [`describe_steered`] on a plane that carries a Gaussian blur of `prior_blur` pixels (a
+/// pyramid level's, the camera's own included): the patch is smoothed by what is missing to
+/// reach `sigma`.
 pub fn describe_steered_blurred(
     gray: &[f32],
     width: usize,

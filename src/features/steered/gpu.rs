@@ -11,6 +11,7 @@ use std::sync::{Arc, Mutex};
 
 use super::{patch_geometry, Steered, STEERED_LEN};
 use crate::error::{Error, Result};
+use crate::features::harris::plan::IMAGE_BLUR;
 use crate::gpu::layout::gpu_struct;
 use crate::gpu::pipelines::single_pipeline_stage;
 use crate::gpu::util::{bind, read_staging, staging, storage, uniform};
@@ -111,7 +112,8 @@ impl GpuSteered {
         }
     }
 
-    /// Descriptors of keypoints at `points` (x, y, σ_D) on a `width`×`height` luminance plane,
+    /// Descriptors of keypoints at `points` (x, y, scale: the total blur, as
+    /// [`super::cpu::describe_steered`]) on a `width`×`height` luminance plane,
     /// in the order given.
     pub fn describe(
         &self,
@@ -120,7 +122,7 @@ impl GpuSteered {
         height: u32,
         points: &[(f32, f32, f32)],
     ) -> Result<Vec<Steered>> {
-        self.describe_blurred(gray, width, height, points, 0.0)
+        self.describe_blurred(gray, width, height, points, IMAGE_BLUR)
     }
 
     /// [`Self::describe`] on a plane that already carries a Gaussian blur of `prior_blur`
