@@ -84,6 +84,22 @@ pub(super) fn refine(
         .map_or((rotation, translation), |(r, t, _)| (r, t))
 }
 
+/// The MSAC score of (R, t) on `points`: the squared Sampson residuals truncated at
+/// `threshold` (normalised units), summed.
+pub(super) fn msac_score(
+    points: &[Correspondence],
+    rotation: &Matrix3<f64>,
+    translation: &Vector3<f64>,
+    threshold: f64,
+) -> f64 {
+    let problem = Problem { points };
+    Problem::robust(
+        &problem.residuals(rotation, translation),
+        Loss::Truncated(threshold),
+    )
+    .1
+}
+
 /// How the residuals are weighed: a Cauchy cost at a wide scale finds the basin (gross
 /// outliers weigh next to nothing, and the points a little off it still pull); the truncated
 /// quadratic (MSAC, RANSAC's own score) settles in it and ranks the starts.

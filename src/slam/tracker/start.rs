@@ -12,6 +12,7 @@ use super::{ms, Slam};
 use crate::error::Result;
 use crate::features::Detector;
 use crate::image::Frame;
+use crate::slam::camera::PinholeCamera;
 use crate::slam::ekf::Seat;
 use crate::slam::klt::{self, Pyramid};
 use crate::slam::resect::resect;
@@ -37,11 +38,11 @@ pub(super) struct Bootstrap {
     /// Timestamp of the reference frame.
     timestamp: f64,
     /// Camera pose at the reference frame.
-    position: Vector3<f64>,
-    orientation: Quat,
+    pub(super) position: Vector3<f64>,
+    pub(super) orientation: Quat,
     /// Pixels in the reference frame and where KLT has followed them to.
-    start: Vec<Vector2<f64>>,
-    current: Vec<Vector2<f64>>,
+    pub(super) start: Vec<Vector2<f64>>,
+    pub(super) current: Vec<Vector2<f64>>,
     /// Timestamp of `current`.
     current_time: f64,
     /// The frames between the reference and `current`: their timestamps and where the points
@@ -52,6 +53,22 @@ pub(super) struct Bootstrap {
 /// Frames between the reference and the current one kept for placing them afterwards; the
 /// later ones keep their reported pose.
 const MAX_BETWEEN: usize = 150;
+
+/// The normalised image points (x/z, y/z) of pixels `from[i]` and `to[i]`, undistorted.
+pub(super) fn normalised_pairs(
+    cam: &PinholeCamera,
+    from: &[Vector2<f64>],
+    to: &[Vector2<f64>],
+) -> Vec<two_view::Correspondence> {
+    let normalised = |z: &Vector2<f64>| {
+        let (ray, _) = cam.back_project(*z);
+        ray / ray.z
+    };
+    from.iter()
+        .zip(to)
+        .map(|(a, c)| (normalised(a), normalised(c)))
+        .collect()
+}
 
 impl Slam {
     fn reference(&self) -> Option<&Bootstrap> {
@@ -225,16 +242,7 @@ impl Slam {
             return 0;
         };
         let cam = self.filter.camera().clone();
-        let normalised = |z: &Vector2<f64>| {
-            let (ray, _) = cam.back_project(*z);
-            ray / ray.z
-        };
-        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> = b
-            .start
-            .iter()
-            .zip(&b.current)
-            .map(|(a, c)| (normalised(a), normalised(c)))
-            .collect();
+        let pairs = normalised_pairs(&cam, &b.start, &b.current);
         let threshold = self.config.ransac.threshold / cam.fx.max(cam.fy);
         let Some(pose) = two_view::relative_pose(
             &pairs,
@@ -254,7 +262,7 @@ impl Slam {
         let created = self.seat_on(frame, timestamp, &b, &pairs, &pose);
         if let (Some(mut rival), Some(alternative)) = (rival, alternative) {
             if created > 0 && rival.seat_on(frame, timestamp, &b, &pairs, &alternative) > 0 {
-                self.start_trial(rival);
+                self.start_trial(rival, &b);
             }
         }
         created
