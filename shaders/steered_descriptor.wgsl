@@ -1,6 +1,6 @@
 // The steered descriptor: one workgroup per keypoint. The patch around the keypoint is
-// smoothed to its scale, the total blur (rows, then columns, borders clamped) on the plane it reads (its
-// pyramid level; every level of a frame lies in `gray`), differentiated, and read in
+// smoothed to its scale, the total blur (rows, then columns, borders clamped), on the plane
+// it reads (its pyramid level; every level of a frame lies in `gray`), differentiated, and read in
 // the frame of its dominant first-order steered direction: a 36-bin orientation histogram,
 // then 4x4 cells x 8 directions with trilinear weights, normalised, clipped at 0.2 and
 // normalised again. Every histogram bin is summed by one invocation over the patch's pixels

@@ -90,8 +90,8 @@ pub struct Keypoint {
     /// Sub-pixel row.
     pub y: f32,
     /// Characteristic scale, in pixels: the total blur √(σ_D² + b²) at the keypoint's σ_D and
-    /// the image's own blur b ([`crate::low_level::harris::plan::IMAGE_BLUR`], 0.7 px), which is what follows a
-    /// zoom between views. Its σ_D is that of the scale dominating the cluster, moved by its
+    /// the image's own blur b ([`crate::low_level::harris::plan::IMAGE_BLUR`], 0.7 px), which
+    /// is what follows a zoom between views. Its σ_D is that of the scale dominating the cluster, moved by its
     /// members' sub-scale offset (the peak of the response across the adjacent scales), so it
     /// lies within half a scale step of a sampled σ_D.
     pub scale: f32,

@@ -11,7 +11,7 @@ use super::{
 use crate::features::harris::plan::IMAGE_BLUR;
 use crate::features::steerable::Kernel1d;
 
-/// The image around one keypoint, smoothed at its σ_D, as the magnitude and direction of its
+/// The image around one keypoint, smoothed to its scale, as the magnitude and direction of its
 /// gradient: the first-order steered response is largest, |∇I|, along atan2(Iy, Ix).
 struct Patch {
     /// Column and row of the patch's first pixel in the image.

@@ -1,7 +1,8 @@
 //! A matchable rotation-invariant descriptor, steered by the keypoint's own orientation: the
 //! first-order steerable basis (eq 3 with n = 1: F(θ) = cos θ·Ix + sin θ·Iy on the image
-//! smoothed at the keypoint's σ_D) read in the keypoint's frame. Beyond the paper, whose
-//! 5-entropy descriptor (section 2.3, [`super::descriptor`]) recalls 0.29 under rotation.
+//! smoothed to the keypoint's scale, its total blur) read in the keypoint's frame. Beyond the
+//! paper, whose 5-entropy descriptor (section 2.3, [`super::descriptor`]) recalls 0.29 under
+//! rotation.
 //!
 //! 1. **Orientation** in [0, 2π). The keypoint's `angle` is the axis of its strongest steered
 //!    second-order response, quantised to the N steered orientations and ambiguous by a half
@@ -52,9 +53,9 @@ pub(crate) const CLIP: f32 = 0.2;
 pub(crate) const SMOOTH_TRUNCATE: f32 = 3.0;
 
 /// The patch geometry both twins use for a keypoint of scale `sigma` (its total blur, in the
-/// plane's pixels) on a plane that already
-/// carries a blur of `prior_blur` (pixels; a pyramid level's): the half-side of the gradient
-/// window (pixels) and the kernel that brings the blur up to `sigma`.
+/// plane's pixels) on a plane that already carries a blur of `prior_blur` (pixels; a pyramid
+/// level's, the image's own included): the half-side of the gradient window (pixels) and the
+/// kernel that brings the blur up to `sigma`.
 pub(crate) fn patch_geometry(sigma: f32, prior_blur: f32) -> (usize, Kernel1d) {
     let window = CELLS as f32 * CELL_SIGMAS * sigma;
     // The rotated window's corners reach half its diagonal; the orientation window 3σ.

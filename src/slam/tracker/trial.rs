@@ -60,6 +60,7 @@ pub(super) struct Trial {
     /// before the first trial frame. Following stops at the frame that would leave fewer
     /// than `[slam.start] min_points`.
     followed_poses: Option<[(Vector3<f64>, Quat); 2]>,
+    /// Whether the points are still followed (false once too few were left).
     following: bool,
 }
 
