@@ -43,6 +43,9 @@ use crate::slam::two_view_refine::msac_score;
 /// innovations) is below this fraction of the other's.
 const REPLACE_BELOW: f64 = 0.85;
 
+/// Points in the start's reference frame and where KLT has followed them to.
+type Followed = (Vec<Vector2<f64>>, Vec<Vector2<f64>>);
+
 /// A session seated on the searched two-view motion, run beside this one.
 #[derive(Clone, Debug)]
 pub(super) struct Trial {
@@ -65,37 +68,29 @@ pub(super) struct Trial {
 }
 
 impl Trial {
-    /// Follows the start's points from `from` into `to` by KLT, dropping those it loses, and
-    /// keeps the hypotheses' `poses` at this frame; stops for good, keeping the last frame's,
-    /// when fewer than `min_points` would be left.
-    fn follow(
-        &mut self,
-        from: &Pyramid,
-        to: &Pyramid,
-        params: &KltParams,
-        min_points: usize,
-        poses: [(Vector3<f64>, Quat); 2],
-    ) {
-        if !self.following {
-            return;
-        }
+    /// The start's points followed from `from` into `to` by KLT: those kept, with their
+    /// pixels in the reference frame.
+    fn follow(&self, from: &Pyramid, to: &Pyramid, params: &KltParams) -> Followed {
         let moved: Vec<Option<Vector2<f64>>> = self
             .followed
             .par_iter()
             .map(|&z| klt::track(from, to, z, z, params))
             .collect();
-        let (reference, followed): (Vec<_>, Vec<_>) = self
-            .reference
+        self.reference
             .iter()
             .zip(moved)
             .filter_map(|(&a, m)| m.map(|z| (a, z)))
-            .unzip();
-        if followed.len() < min_points {
+            .unzip()
+    }
+
+    /// Keeps `followed` and the hypotheses' `poses` at its frame; stops following for good,
+    /// keeping the last frame's, when fewer than `min_points` are left.
+    fn keep(&mut self, followed: Followed, min_points: usize, poses: [(Vector3<f64>, Quat); 2]) {
+        if followed.1.len() < min_points {
             self.following = false;
             return;
         }
-        self.reference = reference;
-        self.followed = followed;
+        (self.reference, self.followed) = followed;
         self.followed_poses = Some(poses);
     }
 }
@@ -144,8 +139,6 @@ impl Slam {
         odometry: Option<&OdometryStep>,
         detector: &Detector,
     ) -> Result<FrameReport> {
-        // The start's points are followed from the previous frame while enough are left.
-        let previous = trial.following.then(|| self.previous.clone()).flatten();
         let ours = match self.process_frame(frame, timestamp, odometry, detector) {
             Ok(report) => report,
             Err(e) => {
@@ -154,6 +147,16 @@ impl Slam {
                 return Err(e);
             }
         };
+        // The start's points, followed while enough are left: the rival still holds the
+        // previous frame's pyramid, this session now this frame's.
+        let t_follow = Instant::now();
+        let followed = match (&trial.rival.previous, &self.previous) {
+            (Some(from), Some(to)) if trial.following => {
+                Some(trial.follow(from, to, &self.config.klt))
+            }
+            _ => None,
+        };
+        let follow_ms = ms(t_follow);
         let theirs = match trial
             .rival
             .process_frame(frame, timestamp, odometry, detector)
@@ -171,7 +174,7 @@ impl Slam {
             filter_ms: ours.timings.filter_ms + theirs.timings.filter_ms,
             total_ms: ours.timings.total_ms + theirs.timings.total_ms,
         };
-        if let (Some(from), Some(to)) = (previous.as_ref(), self.previous.as_ref()) {
+        if let Some(followed) = followed {
             let poses = [
                 (self.filter.position(), self.filter.orientation()),
                 (
@@ -179,15 +182,7 @@ impl Slam {
                     trial.rival.filter.orientation(),
                 ),
             ];
-            let t_follow = Instant::now();
-            trial.follow(
-                from,
-                to,
-                &self.config.klt,
-                self.config.start.min_points,
-                poses,
-            );
-            let follow_ms = ms(t_follow);
+            trial.keep(followed, self.config.start.min_points, poses);
             timings.association_ms += follow_ms;
             timings.total_ms += follow_ms;
         }
