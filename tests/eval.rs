@@ -107,6 +107,26 @@ fn homography_sequence_in_the_oxford_layout() {
 }
 
 #[test]
+fn generated_sequences_are_judged_like_the_given_ones() {
+    use steernav::eval::generate::{write_sequence, Change};
+    let scene = textured_scene(400, 300, 23);
+    let det = common::cpu_detector(&DetectorConfig::matching());
+    for change in [Change::Blur, Change::Jpeg, Change::Zoom] {
+        let dir = tempfile::tempdir().unwrap();
+        write_sequence(dir.path(), &scene, change).unwrap();
+        let (_, matching) =
+            homography_sequence(dir.path(), Some(&det), None, &EvalOptions::default()).unwrap();
+        assert_eq!(matching.len(), 5, "{change:?}");
+        // The mildest view of each change matches well and gives the true map.
+        assert!(
+            matching[0].mma(3) >= 0.8 && matching[0].accurate(3.0),
+            "{change:?}: {:?}",
+            matching[0]
+        );
+    }
+}
+
+#[test]
 fn malformed_inputs_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let h = dir.path().join("H1to2p");

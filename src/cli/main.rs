@@ -156,6 +156,7 @@ fn main() -> ExitCode {
         Command::Batch(cmd) => batch::run(cmd),
         Command::Eval(eval::EvalKind::Rotation(cmd)) => eval::rotation::run(cmd),
         Command::Eval(eval::EvalKind::Homography(cmd)) => eval::homography::run(cmd),
+        Command::Eval(eval::EvalKind::Generate(cmd)) => eval::generate::run(cmd),
         Command::Bench(cmd) => bench::run(cmd),
         Command::NavReplay(cmd) => nav_replay::run(cmd),
         Command::Gist(cmd) => gist::run(cmd),

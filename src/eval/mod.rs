@@ -1,8 +1,9 @@
 //! Evaluation of keypoints (paper section 2.4): repeatability (eq 11) and recall (eq 12) under
-//! known maps, rotation sweeps and homography sequences, and the classic detectors as peers.
+//! known maps, rotation sweeps, homography sequences (given or generated from photos), and the classic detectors as peers.
 
 #[cfg(feature = "plot")]
 pub mod figure;
+pub mod generate;
 pub mod homography;
 pub mod matching;
 pub(crate) mod overlap;

@@ -1,6 +1,7 @@
-//! `steernav eval rotation|homography`: repeatability (eq 11) and recall (eq 12) of steernav
+//! `steernav eval rotation|homography|generate`: repeatability (eq 11) and recall (eq 12) of steernav
 //! and OpenCV's classic detectors, as a table, a CSV and a figure.
 
+pub mod generate;
 pub mod homography;
 pub mod rotation;
 
@@ -22,6 +23,9 @@ pub enum EvalKind {
     Rotation(rotation::RotationCmd),
     /// Compare img1 with img2..img6 of Oxford-layout sequences (imgN + H1toNp files).
     Homography(homography::HomographyCmd),
+    /// Write Oxford-layout sequences made from photos: blurred, JPEG-compressed or shrunk
+    /// views with their maps, for `eval homography`.
+    Generate(generate::GenerateCmd),
 }
 
 /// Settings shared by the evaluations.
