@@ -61,7 +61,7 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
         return;
     }
     use steernav::{Backend, Detector, DetectorConfig};
-    let frame = textured_scene(320, 240, 3);
+    let frame = textured_scene(480, 360, 3);
     let cfg = DetectorConfig::default();
     let g = Detector::new(&cfg, Backend::Gpu)
         .unwrap()
@@ -90,7 +90,12 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
             }
         }
     }
-    assert!(pairs > 50, "{pairs} shared keypoints");
+    assert!(
+        pairs > 50,
+        "{pairs} shared keypoints of {} and {}",
+        g.keypoints.len(),
+        c.keypoints.len()
+    );
     assert!(
         on_levels >= 10,
         "{on_levels} shared keypoints read on a pyramid level"

@@ -122,7 +122,7 @@ pub struct DetectorFlags {
     /// within an octave, which spreads them over the image) [default: strongest].
     #[arg(long, value_parser = choice::<Spread>(Spread::NAMES))]
     pub spread: Option<Spread>,
-    /// Order of the steered Gaussian-derivative basis [default: second].
+    /// Order of the steered Gaussian-derivative basis [default: first; slam: second].
     #[arg(long, value_parser = choice::<BasisOrder>(BasisOrder::NAMES))]
     pub basis: Option<BasisOrder>,
     /// How detections of all orientations and scales are merged [default: covariant].

@@ -98,9 +98,14 @@ pub struct DetectorConfig {
     /// the 15° steps of a rotation sweep land on steered filters (8 measured 0.02–0.03 lower in mean
     /// rotation repeatability, for about 20% less time).
     pub orientations: usize,
-    /// Basis of the steerable filter. Default second order.
+    /// Basis of the steerable filter. Default first order: Harris on every steered first
+    /// derivative. Its responses fall with blur as (σ_e/t)^8 (t the total blur), against
+    /// (σ_e/t)^12 for the second order's third derivatives, so a blurred, compressed or
+    /// resampled view keeps more of the same keypoints (docs/EVALUATION.md, "The first-order
+    /// basis").
     pub basis: BasisOrder,
-    /// Standard deviation of the Gaussian basis filters, in pixels. Default 1.0.
+    /// Standard deviation of the Gaussian basis filters, in pixels. Default 0.8 (1.0 for the
+    /// second order, which SLAM's tracking preset keeps).
     pub basis_sigma: f32,
     /// Number of detection scales S. Default 11: σ_D from 1 to 32 px, five octaves, whose
     /// coarse scales run on the image pyramid (see [`crate::features::harris::plan`]).
@@ -112,16 +117,17 @@ pub struct DetectorConfig {
     pub scale_step: f32,
     /// Exponent p of the scale normalisation: every derivative plane D_k is multiplied by
     /// σ_e^p (σ_e the effective scale) before the structure tensor, so R scales with σ_e^(4p).
-    /// Default 3.0, the order of the D_k (third derivatives for the second-order basis): the
-    /// γ-normalisation under which R of a structure zoomed by s peaks at s times the scale,
-    /// so the suppression across scales picks each corner's characteristic scale. At 2 the
-    /// responses fell as σ⁻⁴ and 99% of the keypoints came from the finest scale.
+    /// Default 2.0, the order of the D_k (second derivatives for the first-order basis; 3 for
+    /// the second order's third derivatives): the γ-normalisation under which R of a
+    /// structure zoomed by s peaks at s times the scale, so the suppression across scales
+    /// picks each corner's characteristic scale. One below the order, the responses fall as
+    /// σ⁻⁴ and 99% of the keypoints come from the finest scale.
     pub scale_normalization: f32,
     /// Exponent p_r of the normalisation used to rank keypoints against each other across
     /// scales: a member's response R_s counts as R_s·(σ_e,s/σ_e,0)^(4(p_r − p)) when its
     /// cluster's strength is taken. Scale selection (suppression across scales) keeps p; a
-    /// ranking with p_r < p favours the finest scales. Default 2.75: a slight lean to the
-    /// fine scales, whose keypoints survive the blur of a resampled (rotated) view better;
+    /// ranking with p_r < p favours the finest scales. Default 1.8 (p − 0.2): a slight lean to
+    /// the fine scales, whose keypoints survive the blur of a resampled (rotated) view better;
     /// p_r = p gives more coarse keypoints and loses rotation repeatability (docs/EVALUATION.md).
     pub rank_normalization: f32,
     /// Integration-window ratio γ (σ_I = γ·σ_D, eq 7). Default 1.5.
@@ -170,13 +176,13 @@ impl Default for DetectorConfig {
     fn default() -> Self {
         Self {
             orientations: 12,
-            basis: BasisOrder::Second,
-            basis_sigma: 1.0,
+            basis: BasisOrder::First,
+            basis_sigma: 0.8,
             scales: 11,
             sigma0: 1.0,
             scale_step: std::f32::consts::SQRT_2,
-            scale_normalization: 3.0,
-            rank_normalization: 2.75,
+            scale_normalization: 2.0,
+            rank_normalization: 1.8,
             gamma: 1.5,
             harris_k: 0.04,
             threshold: 1e-12,
@@ -210,6 +216,10 @@ impl DetectorConfig {
     pub fn tracking() -> Self {
         Self {
             orientations: 6,
+            // Measured with the second-order basis, which it keeps: its landmarks' templates
+            // and the SLAM suite's figures were set on it.
+            basis: BasisOrder::Second,
+            basis_sigma: 1.0,
             scales: 3,
             scale_step: 1.4,
             scale_normalization: 2.0,

@@ -537,7 +537,7 @@ mod tests {
 
     #[test]
     fn banded_suppression_matches_the_whole_image_bit_for_bit() {
-        let (w, h) = (203, 157);
+        let (w, h) = (263, 197);
         let image = crate::synth::textured_scene(w as u32, h as u32, 3);
         let plan = HarrisPlan::new(&DetectorConfig::default());
         let whole = CpuHarris::new(plan.clone());
