@@ -99,6 +99,8 @@ fn non_finite_and_out_of_range_config_values_are_refused() {
         "rank_normalization = -1.0",
         "rank_normalization = nan",
         "max_keypoints = 0",
+        "image_blur = nan",
+        "image_blur = 7.5",
     ] {
         let e = DetectorConfig::from_toml_str(text).unwrap_err().to_string();
         let field = text

@@ -43,8 +43,11 @@ fn keypoint_scales_follow_a_zoom_between_the_sampled_scales() {
     let b = detector.detect(&zoomed).unwrap().keypoints;
     // The scales rounded to the sampled σ_D: what the keypoints carried before the offset.
     let sampled = |s: f32| {
-        let sigma_d = detection_scale(s);
-        total_scale(step.powf((sigma_d / config.sigma0).log(step).round()) * config.sigma0)
+        let sigma_d = detection_scale(s, config.image_blur);
+        total_scale(
+            step.powf((sigma_d / config.sigma0).log(step).round()) * config.sigma0,
+            config.image_blur,
+        )
     };
     let continuous = scale_errors(&a, &b, z, |s| s);
     let rounded = scale_errors(&a, &b, z, sampled);
@@ -57,4 +60,44 @@ fn keypoint_scales_follow_a_zoom_between_the_sampled_scales() {
     let (c, r) = (median(continuous), median(rounded));
     println!("median |log2 scale error|: continuous {c:.3}, rounded {r:.3}");
     assert!(c < 0.8 * r, "continuous {c} against rounded {r}");
+}
+
+#[test]
+fn the_image_blur_setting_moves_the_scales_and_not_the_keypoints() {
+    let frame = textured_scene(320, 240, 5);
+    let sharp = DetectorConfig {
+        image_blur: 0.4,
+        ..DetectorConfig::default()
+    };
+    let (a, b) = (
+        common::cpu_detector(&DetectorConfig::default())
+            .detect(&frame)
+            .unwrap()
+            .keypoints,
+        common::cpu_detector(&sharp)
+            .detect(&frame)
+            .unwrap()
+            .keypoints,
+    );
+    assert!(a.len() > 30 && a.len() == b.len());
+    let default_blur = DetectorConfig::default().image_blur;
+    let mut described_apart = 0;
+    for (p, q) in a.iter().zip(&b) {
+        assert!(p.x == q.x && p.y == q.y && p.response == q.response);
+        let (dp, dq) = (
+            detection_scale(p.scale, default_blur),
+            detection_scale(q.scale, 0.4),
+        );
+        assert!((dp - dq).abs() < 1e-4 * dp, "σ_D {dp} against {dq}");
+        assert!(q.scale < p.scale);
+        described_apart += usize::from(p.descriptor != q.descriptor);
+    }
+    // The descriptor's window and smoothing follow the scale.
+    assert!(described_apart > a.len() / 2);
+    let bad = DetectorConfig {
+        image_blur: -0.1,
+        ..DetectorConfig::default()
+    };
+    let err = bad.validate().unwrap_err().to_string();
+    assert!(err.contains("image_blur"), "{err}");
 }

@@ -83,7 +83,7 @@ fn the_detector_describes_on_the_gpu_like_on_the_cpu() {
             .find(|b| (a.x - b.x).abs() < 1e-3 && (a.y - b.y).abs() < 1e-3 && a.scale == b.scale)
         {
             pairs += 1;
-            on_levels += usize::from(detection_scale(a.scale) >= 2.0);
+            on_levels += usize::from(detection_scale(a.scale, cfg.image_blur) >= 2.0);
             let d = steernav::low_level::steered::cpu::distance(&a.descriptor, &b.descriptor);
             if d < 1e-2 {
                 agree += 1;

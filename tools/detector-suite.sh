@@ -3,8 +3,11 @@
 # once (issue 20): correct matches at 3 px and homography accuracy at 3 px on each Oxford
 # sequence and over all four (1000 keypoints), and the rotation sweep's mean and minimum
 # repeatability and recall (15–75° every 15°, ε = 2 px, 500 keypoints, the sample and img1 of
-# each sequence), and the inliers of `steernav match` on bark and graf img1 against img4 (its
-# defaults: 1000 keypoints, guided). steernav only, CPU; about 13 s on two cores.
+# each sequence), the inliers of `steernav match` on bark and graf img1 against img4 (its
+# defaults: 1000 keypoints, guided), and the same homography figures over sequences generated
+# from the five images (`steernav eval generate`: blur, JPEG, zoom; 25 pairs each). steernav
+# only, CPU; about 45 s on two cores. The generated sequences are cached in $GENERATED (default
+# /tmp/steernav-generated).
 #
 #   tools/detector-suite.sh [SETTINGS.toml] [detector flags...]
 #
@@ -38,4 +41,20 @@ for s in bark graf; do
   "$steernav" match "$oxford/$s/img1.ppm" "$oxford/$s/img4.ppm" --backend cpu "${config[@]}" "$@" \
     2>"$out/m.err" | awk -v s="$s" '{for (i = 1; i < NF; i++) if ($(i + 1) ~ /^inliers/) print "match", s, "img1-img4 inliers", $i}' ||
     { cat "$out/m.err" >&2; exit 1; }
+done
+# Blur, JPEG and zoom, generated from the same five images.
+generated=${GENERATED:-/tmp/steernav-generated}
+for change in blur jpeg zoom; do
+  if [ ! -f "$generated/$change/done" ]; then
+    rm -rf "$generated/$change"
+    "$steernav" eval generate "${images[@]}" --change "$change" --out "$generated/$change" >/dev/null
+    touch "$generated/$change/done"
+  fi
+  dirs=()
+  for d in "$generated/$change"/*/; do dirs+=("${d%/}"); done
+  "$steernav" eval homography "${dirs[@]}" --detectors steernav --keypoints 1000 --backend cpu \
+    --out "$out/$change" "${config[@]}" "$@" >"$out/$change.txt" 2>"$out/$change.err" ||
+    { cat "$out/$change.err" >&2; exit 1; }
+  grep -A3 '^== all' "$out/$change.txt" | grep '^| steernav' |
+    awk -F'|' -v c="$change" '{print c, "correct", $3, "H acc @1", $8, "@3", $9}'
 done

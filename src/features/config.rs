@@ -132,6 +132,12 @@ pub struct DetectorConfig {
     pub rank_normalization: f32,
     /// Integration-window ratio γ (σ_I = γ·σ_D, eq 7). Default 1.5.
     pub gamma: f32,
+    /// Blur the input images carry already, in their pixels (optics, demosaicing, resizing).
+    /// Default 0.7 ([`crate::low_level::harris::plan::IMAGE_BLUR`]). A keypoint's scale is
+    /// the total blur √(σ_D² + b²), which follows zoom between views, and the steered
+    /// descriptor smooths its patch from it: about 0.5 suits images shrunk with an area
+    /// filter, 1 or more soft optics. Detection itself does not depend on it.
+    pub image_blur: f32,
     /// Harris constant k of eq 8. Default 0.04.
     pub harris_k: f32,
     /// Absolute floor of the scale-normalised Harris response of a candidate. Default 1e-12,
@@ -184,6 +190,7 @@ impl Default for DetectorConfig {
             scale_normalization: 2.0,
             rank_normalization: 1.8,
             gamma: 1.5,
+            image_blur: crate::features::harris::plan::IMAGE_BLUR,
             harris_k: 0.04,
             threshold: 1e-12,
             relative_threshold: 0.001,
@@ -309,6 +316,13 @@ impl DetectorConfig {
         }
         if !self.threshold.is_finite() || self.threshold < 0.0 {
             return bad("threshold", self.threshold, "must be a finite number >= 0");
+        }
+        if !self.image_blur.is_finite() || !(0.0..=3.0).contains(&self.image_blur) {
+            return bad(
+                "image_blur",
+                self.image_blur,
+                "must be finite, in [0, 3] px",
+            );
         }
         if !self.relative_threshold.is_finite() || !(0.0..=1.0).contains(&self.relative_threshold) {
             return bad(

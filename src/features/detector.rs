@@ -372,10 +372,15 @@ impl Detector {
             }
         };
         let top = pyramid.levels() as u32 - 1;
+        let blur = self.plan.config.image_blur;
         let on_level = |k: &Keypoint| {
-            let level = descriptor_level(detection_scale(k.scale)).min(top);
+            let level = descriptor_level(detection_scale(k.scale, blur)).min(top);
             let f = (1u32 << level) as f32;
-            (level, (k.x / f, k.y / f, k.scale / f), plane_blur(level))
+            (
+                level,
+                (k.x / f, k.y / f, k.scale / f),
+                plane_blur(level, blur),
+            )
         };
         match (&self.gpu_steered, backend) {
             (Some(g), Backend::Gpu) => {
@@ -386,7 +391,7 @@ impl Detector {
                             gray,
                             width: lw as u32,
                             height: lh as u32,
-                            prior_blur: plane_blur(level),
+                            prior_blur: plane_blur(level, blur),
                         }
                     })
                     .collect();
@@ -442,6 +447,7 @@ impl Detector {
                 scale: total_scale(
                     self.plan.scales[c.scale_index].sigma_d
                         * self.plan.config.scale_step.powf(c.scale_offset),
+                    self.plan.config.image_blur,
                 ),
                 angle: self.plan.orientations[c.orientation_index],
                 response: c.response,

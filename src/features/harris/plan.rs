@@ -52,24 +52,26 @@ pub const PYRAMID_BLUR: f32 = 1.0;
 /// zoom of J a corner found at σ_D in one view is found at √(J²(σ_D² + b²) − b²) in the other.
 /// On bark, the keypoints' σ_D fall short of the true map's scale by a median 0.36 octave at
 /// J ≈ 0.36 and their total scales with b = 0.7 by 0.13 (docs/EVALUATION.md), so keypoint scales
-/// and the descriptor's window use the total (see [`total_scale`]).
+/// and the descriptor's window use the total (see [`total_scale`]). The default of
+/// `[detector] image_blur` ([`crate::DetectorConfig::image_blur`]).
 pub const IMAGE_BLUR: f32 = 0.7;
 
-/// A keypoint's scale (`Keypoint::scale`) from the σ_D it was detected at: the total blur
-/// √(σ_D² + b²) with b = [`IMAGE_BLUR`], which follows zoom between views.
-pub fn total_scale(sigma_d: f32) -> f32 {
-    sigma_d.hypot(IMAGE_BLUR)
+/// A keypoint's scale (`Keypoint::scale`) from the σ_D it was detected at on an image that
+/// carries a blur of `image_blur` (b, [`IMAGE_BLUR`] by default): the total blur √(σ_D² + b²),
+/// which follows zoom between views.
+pub fn total_scale(sigma_d: f32, image_blur: f32) -> f32 {
+    sigma_d.hypot(image_blur)
 }
 
 /// The σ_D a keypoint of total scale `scale` ([`total_scale`]) was detected at.
-pub fn detection_scale(scale: f32) -> f32 {
-    (scale * scale - IMAGE_BLUR * IMAGE_BLUR).max(0.0).sqrt()
+pub fn detection_scale(scale: f32, image_blur: f32) -> f32 {
+    (scale * scale - image_blur * image_blur).max(0.0).sqrt()
 }
 
-/// The blur pyramid level `level` carries in its own pixels, the image's own
-/// ([`IMAGE_BLUR`]) included: what the steered descriptor's smoothing starts from there.
-pub fn plane_blur(level: u32) -> f32 {
-    level_blur(level).hypot(IMAGE_BLUR) / (1u32 << level) as f32
+/// The blur pyramid level `level` carries in its own pixels, the image's own (`image_blur`)
+/// included: what the steered descriptor's smoothing starts from there.
+pub fn plane_blur(level: u32, image_blur: f32) -> f32 {
+    level_blur(level).hypot(image_blur) / (1u32 << level) as f32
 }
 
 /// A scale's derivatives run on the coarsest level where σ_e spans at least this many level
