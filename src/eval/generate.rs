@@ -91,8 +91,22 @@ fn write_png(path: &Path, frame: &Frame) -> Result<()> {
     write_atomic(path, &bytes)
 }
 
-/// Every channel blurred by a Gaussian of `sigma` px (truncated at 4σ, borders clamped).
+/// Refuses a generator's setting outside `range`, naming it.
+fn check(field: &'static str, value: f64, range: std::ops::RangeInclusive<f64>) -> Result<()> {
+    if value.is_finite() && range.contains(&value) {
+        return Ok(());
+    }
+    Err(Error::Config {
+        field,
+        value: value.to_string(),
+        reason: format!("must be finite, in [{}, {}]", range.start(), range.end()),
+    })
+}
+
+/// Every channel blurred by a Gaussian of `sigma` px (0.1–50; truncated at 4σ, borders
+/// clamped).
 pub fn blur(frame: &Frame, sigma: f32) -> Result<Frame> {
+    check("sigma", sigma as f64, 0.1..=50.0)?;
     let radius = (4.0 * sigma).ceil() as i64;
     let mut taps: Vec<f32> = (-radius..=radius)
         .map(|t| (-(t * t) as f32 / (2.0 * sigma * sigma)).exp())
@@ -138,6 +152,7 @@ pub fn blur(frame: &Frame, sigma: f32) -> Result<Frame> {
 
 /// The frame compressed as JPEG at `quality` (1–100) and decoded again.
 pub fn jpeg(frame: &Frame, quality: u8) -> Result<Frame> {
+    check("quality", quality as f64, 1.0..=100.0)?;
     let fail = |e: image::ImageError| Error::Io {
         path: format!("<JPEG at quality {quality}>").into(),
         source: std::io::Error::other(e.to_string()),
@@ -157,10 +172,11 @@ pub fn jpeg(frame: &Frame, quality: u8) -> Result<Frame> {
     Frame::from_rgb(decoded.width(), decoded.height(), decoded.into_raw())
 }
 
-/// The frame shrunk by `factor` (> 1): output pixel u covers source pixels [u·f, (u+1)·f) on
-/// each axis and takes their area-weighted mean. The map sends source pixel centre x to
+/// The frame shrunk by `factor` (1–100): output pixel u covers source pixels [u·f, (u+1)·f)
+/// on each axis and takes their area-weighted mean. The map sends source pixel centre x to
 /// (x + ½)/f − ½.
 pub fn shrink(frame: &Frame, factor: f64) -> Result<(Frame, Homography)> {
+    check("factor", factor, 1.0..=100.0)?;
     let (w, h) = (frame.width as usize, frame.height as usize);
     let (ow, oh) = (
         ((w as f64 / factor).floor() as usize).max(1),
@@ -280,6 +296,20 @@ mod tests {
                 .sum::<f64>()
         };
         assert!(err(40) < err(5));
+    }
+
+    #[test]
+    fn settings_out_of_range_are_refused_by_name() {
+        let f = square(16, 16, (4, 4), 4);
+        for (e, name) in [
+            (blur(&f, 0.0).unwrap_err(), "sigma"),
+            (blur(&f, f32::NAN).unwrap_err(), "sigma"),
+            (jpeg(&f, 0).unwrap_err(), "quality"),
+            (shrink(&f, 0.5).unwrap_err(), "factor"),
+            (shrink(&f, f64::INFINITY).unwrap_err(), "factor"),
+        ] {
+            assert!(e.to_string().contains(name), "{e}");
+        }
     }
 
     #[test]
