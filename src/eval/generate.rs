@@ -19,6 +19,7 @@ use rayon::prelude::*;
 
 use super::homography::{Homography, IDENTITY};
 use crate::error::{Error, Result};
+use crate::features::steerable::Kernel1d;
 use crate::image::Frame;
 use crate::output::write_atomic;
 
@@ -76,7 +77,8 @@ pub fn write_sequence(dir: &Path, frame: &Frame, change: Change) -> Result<()> {
     Ok(())
 }
 
-fn write_png(path: &Path, frame: &Frame) -> Result<()> {
+/// `frame` as a PNG at `path`, written atomically.
+pub(crate) fn write_png(path: &Path, frame: &Frame) -> Result<()> {
     let mut bytes = Vec::new();
     image::RgbImage::from_raw(frame.width, frame.height, frame.rgb.clone())
         .expect("a frame holds its pixels")
@@ -107,47 +109,40 @@ fn check(field: &'static str, value: f64, range: std::ops::RangeInclusive<f64>) 
 /// clamped).
 pub fn blur(frame: &Frame, sigma: f32) -> Result<Frame> {
     check("sigma", sigma as f64, 0.1..=50.0)?;
-    let radius = (4.0 * sigma).ceil() as i64;
-    let mut taps: Vec<f32> = (-radius..=radius)
-        .map(|t| (-(t * t) as f32 / (2.0 * sigma * sigma)).exp())
-        .collect();
-    let total: f32 = taps.iter().sum();
-    taps.iter_mut().for_each(|t| *t /= total);
+    let taps = Kernel1d::gaussian_derivative(sigma, 0, 4.0).taps;
     let (w, h) = (frame.width as usize, frame.height as usize);
     let src: Vec<f32> = frame.rgb.iter().map(|&v| v as f32).collect();
-    // Along rows, then along columns; three interleaved channels.
-    let mut rows = vec![0f32; src.len()];
-    rows.par_chunks_mut(3 * w).enumerate().for_each(|(y, out)| {
-        for x in 0..w {
-            for c in 0..3 {
-                out[3 * x + c] = taps
-                    .iter()
-                    .enumerate()
-                    .map(|(i, t)| {
-                        let xx = (x as i64 + i as i64 - radius).clamp(0, w as i64 - 1) as usize;
-                        t * src[3 * (y * w + xx) + c]
-                    })
-                    .sum();
-            }
-        }
-    });
-    let mut rgb = vec![0u8; src.len()];
-    rgb.par_chunks_mut(3 * w).enumerate().for_each(|(y, out)| {
-        for x in 0..w {
-            for c in 0..3 {
-                let v: f32 = taps
-                    .iter()
-                    .enumerate()
-                    .map(|(i, t)| {
-                        let yy = (y as i64 + i as i64 - radius).clamp(0, h as i64 - 1) as usize;
-                        t * rows[3 * (yy * w + x) + c]
-                    })
-                    .sum();
-                out[3 * x + c] = v.round().clamp(0.0, 255.0) as u8;
-            }
-        }
-    });
+    let rows = blur_axis(&src, w, h, &taps, true);
+    let cols = blur_axis(&rows, w, h, &taps, false);
+    let rgb = cols
+        .iter()
+        .map(|v| v.round().clamp(0.0, 255.0) as u8)
+        .collect();
     Frame::from_rgb(frame.width, frame.height, rgb)
+}
+
+/// `taps` applied to interleaved RGB (`w`×`h`) along its rows or its columns, borders clamped.
+fn blur_axis(src: &[f32], w: usize, h: usize, taps: &[f32], along_rows: bool) -> Vec<f32> {
+    let radius = (taps.len() / 2) as i64;
+    // Values between neighbours along the axis, and samples along it.
+    let (stride, len) = if along_rows { (3, w) } else { (3 * w, h) };
+    let mut out = vec![0f32; src.len()];
+    out.par_chunks_mut(3 * w).enumerate().for_each(|(y, row)| {
+        for (i, v) in row.iter_mut().enumerate() {
+            let at = 3 * w * y + i;
+            // Position of this value along the axis.
+            let pos = if along_rows { (i / 3) as i64 } else { y as i64 };
+            *v = taps
+                .iter()
+                .enumerate()
+                .map(|(k, t)| {
+                    let p = (pos + k as i64 - radius).clamp(0, len as i64 - 1);
+                    t * src[(at as i64 + (p - pos) * stride as i64) as usize]
+                })
+                .sum();
+        }
+    });
+    out
 }
 
 /// The frame compressed as JPEG at `quality` (1–100) and decoded again.

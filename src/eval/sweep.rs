@@ -175,7 +175,7 @@ pub fn rotation_sweep(
             let (rotated, map) = crate::synth::rotate(&frame, angle.to_radians() as f32, cw, ch);
             let file = tmp.path().join(format!("{n}_{k}.png"));
             if peers.is_some() {
-                write_png(&file, &rotated)?;
+                super::generate::write_png(&file, &rotated)?;
             }
             views.push((angle, rotated, from_affine(&map), file));
         }
@@ -200,7 +200,7 @@ pub fn rotation_sweep(
         }
         if let Some((runner, names)) = peers {
             let original = tmp.path().join(format!("{n}_source.png"));
-            write_png(&original, &frame)?;
+            super::generate::write_png(&original, &frame)?;
             let mut files = vec![original.clone()];
             files.extend(views.iter().map(|v| v.3.clone()));
             let found = runner.detect(names, &files)?;
@@ -229,16 +229,6 @@ pub fn rotation_sweep(
         }
     }
     Ok(rows)
-}
-
-fn write_png(path: &Path, frame: &Frame) -> Result<()> {
-    image::RgbImage::from_raw(frame.width, frame.height, frame.rgb.clone())
-        .expect("frame holds its pixels")
-        .save(path)
-        .map_err(|e| Error::Io {
-            path: path.to_path_buf(),
-            source: std::io::Error::other(e.to_string()),
-        })
 }
 
 /// One view of a sequence beside img1: its index N, its file and the map H1toN.
