@@ -113,7 +113,10 @@ pub struct DetectorConfig {
     /// Finest differentiation scale σ_D, in pixels. Default 1.0.
     pub sigma0: f32,
     /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default √2: two
-    /// scales per octave.
+    /// scales per octave. Three per octave (`scales = 16`, `scale_step = 1.259921`) find
+    /// 1–8% more correct matches on every sequence measured (a corner's response peak moves
+    /// with scale, so a finer sampling keeps a zoomed or blurred view's keypoints closer) at
+    /// 35–50% more time on the CPU (docs/EVALUATION.md, "Three scales per octave").
     pub scale_step: f32,
     /// Exponent p of the scale normalisation: every derivative plane D_k is multiplied by
     /// σ_e^p (σ_e the effective scale) before the structure tensor, so R scales with σ_e^(4p).
@@ -210,8 +213,9 @@ impl Default for DetectorConfig {
 /// Upper bound on orientations: the GPU's non-maximum suppression visits 27 neighbours per
 /// orientation in one invocation and lavapipe stops loops past 65,535 iterations.
 pub const MAX_ORIENTATIONS: usize = 180;
-/// Upper bound on scales (kernel radii grow geometrically).
-pub const MAX_SCALES: usize = 16;
+/// Upper bound on scales: the coarse ones run on the pyramid, so their kernels stay small;
+/// 32 allow six per octave over the default five octaves.
+pub const MAX_SCALES: usize = 32;
 
 impl DetectorConfig {
     /// The configuration SLAM detects new landmarks with: 6 orientations and 3 fine scales

@@ -22,9 +22,11 @@ struct ScaleBand {
 }
 
 /// Bytes of response rows the CPU backend holds at once. The suppression runs over bands of
-/// image rows, so a whole 12-orientation, 5-scale stack — 2.9 GB at 24 MP — never exists at
-/// once; frames up to about 2 MP at the defaults (1920×1080) fit in one band and pay no halo.
-const RESPONSE_BUDGET_BYTES: usize = 256 << 20;
+/// image rows, so a whole 12-orientation stack of every scale — 2.9 GB at 24 MP for the
+/// default 11 scales — never exists at once; frames up to about 2 MP (1920×1080: 253 MiB at
+/// the defaults, 379 MiB at three scales per octave) fit in one band and pay no halo. Two
+/// bands there cost 20% more time.
+const RESPONSE_BUDGET_BYTES: usize = 512 << 20;
 
 /// The CPU backend of the Harris stage; reuses its buffers across frames of one size.
 pub struct CpuHarris {
@@ -123,7 +125,7 @@ impl CpuHarris {
     ///
     /// Responses are computed and suppressed one band of image rows at a time (each band with
     /// the halo of rows its suppression reads), so memory is bounded by
-    /// `RESPONSE_BUDGET_BYTES` (256 MiB) rather than by the image; the candidates are those of the
+    /// `RESPONSE_BUDGET_BYTES` (512 MiB) rather than by the image; the candidates are those of the
     /// whole-image suppression, bit for bit.
     pub fn candidates(
         &self,
@@ -430,27 +432,17 @@ fn suppress(
             let (gw, gh) = grids[s];
             let g = plan.scales[s].step as usize;
             let m = plan.scales[s].grid_margin();
-            // Scale sc's sample nearest pixel (px, py).
-            let nearest = |sc: usize, px: usize, py: usize| {
+            // The 3×3 neighbourhood of scale sc around its sample nearest pixel row `py`.
+            let adjacent = |sc: usize, py: usize| {
+                let (w, h) = grids[sc];
                 let gs = plan.scales[sc].step as usize;
-                ((px + gs / 2) / gs, (py + gs / 2) / gs)
-            };
-            // Is v at least every value of scale sc's 3×3 neighbourhood around pixel (px, py)?
-            let across = |sc: usize, px: usize, py: usize, v: f32| {
-                let (w, h) = grids[sc];
-                let (cx, cy) = nearest(sc, px, py);
-                // The centre first: the same point at the adjacent scale rejects most samples.
-                [4usize, 0, 1, 2, 3, 5, 6, 7, 8].iter().all(|&i| {
-                    let nx = (cx + i % 3).saturating_sub(1).min(w - 1);
-                    let ny = (cy + i / 3).saturating_sub(1).min(h - 1);
-                    row(sc, t, ny)[nx] <= v
-                })
-            };
-            // The value there: the centre `across` compares first.
-            let centre = |sc: usize, px: usize, py: usize| {
-                let (w, h) = grids[sc];
-                let (cx, cy) = nearest(sc, px, py);
-                row(sc, t, cy.min(h - 1))[cx.min(w - 1)]
+                let cy = (py + gs / 2) / gs;
+                Adjacent {
+                    rows: [cy.saturating_sub(1), cy, cy + 1].map(|ny| row(sc, t, ny.min(h - 1))),
+                    half: gs / 2,
+                    shift: gs.trailing_zeros(),
+                    last: w - 1,
+                }
             };
             let mut out = Vec::new();
             if gw <= 2 * m || gh <= 2 * m {
@@ -464,21 +456,23 @@ fn suppress(
                 // branch-free pass the compiler vectorises; the rare survivors get the rest.
                 let (up, mid, down) = (row(s, t, y - 1), row(s, t, y), row(s, t, y + 1));
                 strict_maxima([up, mid, down], threshold, m..gw - m, &mut maxima);
+                let py = y * g;
+                let below = (s > 0).then(|| adjacent(s - 1, py));
+                let above = (s + 1 < scales).then(|| adjacent(s + 1, py));
                 for x in (m..gw - m).filter(|&x| maxima[x]) {
                     let v = mid[x];
-                    let (px, py) = (x * g, y * g);
-                    let keep = (s == 0 || across(s - 1, px, py, v))
-                        && (s + 1 == scales || across(s + 1, px, py, v));
+                    let px = x * g;
+                    let keep = below.as_ref().is_none_or(|a| a.at_most(px, v))
+                        && above.as_ref().is_none_or(|a| a.at_most(px, v));
                     if keep {
                         let (ox, oy) = peak_offset(
                             [up[x - 1], up[x], up[x + 1]],
                             [mid[x - 1], v, mid[x + 1]],
                             [down[x - 1], down[x], down[x + 1]],
                         );
-                        let offset = if s == 0 || s + 1 == scales {
-                            0.0
-                        } else {
-                            parabola_offset(centre(s - 1, px, py), v, centre(s + 1, px, py))
+                        let offset = match (&below, &above) {
+                            (Some(b), Some(a)) => parabola_offset(b.centre(px), v, a.centre(px)),
+                            _ => 0.0,
                         };
                         out.push(Candidate {
                             x: (x as f32 + ox) * g as f32,
@@ -492,6 +486,50 @@ fn suppress(
             out.into_iter()
         })
         .collect()
+}
+
+/// The three rows of an adjacent scale's grid around the sample nearest one pixel row, for
+/// the suppression across scales: its sample nearest pixel column px is (px + step/2) / step,
+/// indices clamped to the grid.
+struct Adjacent<'a> {
+    rows: [&'a [f32]; 3],
+    half: usize,
+    /// log2 of the adjacent grid's step (a power of two).
+    shift: u32,
+    last: usize,
+}
+
+impl Adjacent<'_> {
+    /// Columns of the 3×3 neighbourhood around the sample nearest pixel column `px`, the
+    /// centre first.
+    #[inline]
+    fn columns(&self, px: usize) -> [usize; 3] {
+        let cx = (px + self.half) >> self.shift;
+        [cx, cx.saturating_sub(1), cx + 1].map(|c| c.min(self.last))
+    }
+
+    /// Is `v` at least every value of the neighbourhood? The centre first: the same point at
+    /// the adjacent scale rejects most samples.
+    #[inline]
+    fn at_most(&self, px: usize, v: f32) -> bool {
+        let [c, l, r] = self.columns(px);
+        let [up, mid, down] = self.rows;
+        mid[c] <= v
+            && mid[l] <= v
+            && mid[r] <= v
+            && up[c] <= v
+            && up[l] <= v
+            && up[r] <= v
+            && down[c] <= v
+            && down[l] <= v
+            && down[r] <= v
+    }
+
+    /// The value at the centre of the neighbourhood.
+    #[inline]
+    fn centre(&self, px: usize) -> f32 {
+        self.rows[1][self.columns(px)[0]]
+    }
 }
 
 /// Sub-pixel offset of a 3×3 maximum (rows `up`, `mid`, `down`; the centre is `mid[1]`):
