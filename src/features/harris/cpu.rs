@@ -435,12 +435,11 @@ fn suppress(
             // The 3×3 neighbourhood of scale sc around its sample nearest pixel row `py`.
             let adjacent = |sc: usize, py: usize| {
                 let (w, h) = grids[sc];
-                let gs = plan.scales[sc].step as usize;
-                let cy = (py + gs / 2) / gs;
+                let shift = plan.scales[sc].step.trailing_zeros();
+                let cy = nearest_sample(py, shift);
                 Adjacent {
                     rows: [cy.saturating_sub(1), cy, cy + 1].map(|ny| row(sc, t, ny.min(h - 1))),
-                    half: gs / 2,
-                    shift: gs.trailing_zeros(),
+                    shift,
                     last: w - 1,
                 }
             };
@@ -488,12 +487,17 @@ fn suppress(
         .collect()
 }
 
+/// The index of the sample nearest pixel `p` on a grid whose step is 2^`shift`:
+/// (p + step/2) / step.
+#[inline]
+fn nearest_sample(p: usize, shift: u32) -> usize {
+    (p + ((1usize << shift) >> 1)) >> shift
+}
+
 /// The three rows of an adjacent scale's grid around the sample nearest one pixel row, for
-/// the suppression across scales: its sample nearest pixel column px is (px + step/2) / step,
-/// indices clamped to the grid.
+/// the suppression across scales, indices clamped to the grid.
 struct Adjacent<'a> {
     rows: [&'a [f32]; 3],
-    half: usize,
     /// log2 of the adjacent grid's step (a power of two).
     shift: u32,
     last: usize,
@@ -504,7 +508,7 @@ impl Adjacent<'_> {
     /// centre first.
     #[inline]
     fn columns(&self, px: usize) -> [usize; 3] {
-        let cx = (px + self.half) >> self.shift;
+        let cx = nearest_sample(px, self.shift);
         [cx, cx.saturating_sub(1), cx + 1].map(|c| c.min(self.last))
     }
 
