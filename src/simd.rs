@@ -208,54 +208,159 @@ unsafe fn fold_into_avx2(out: &mut [f32], a: &[f32], b: &[f32], k: f32, sign: f3
     }
 }
 
-/// `maxima[x]` for x in `columns`: whether `mid[x]` exceeds `threshold` and its 8 neighbours
-/// in the rows `[up, mid, down]`, in a branch-free pass (the 3×3 test of the suppression,
-/// 8 lanes wide with AVX2). Comparisons round nothing, so both builds agree exactly.
+/// Bit x % 64 of `mask[x / 64]`, for x in `columns`: whether `mid[x]` exceeds `threshold` and
+/// its 8 neighbours in the rows `[up, mid, down]` (the 3×3 test of the suppression). Bits
+/// outside `columns` are cleared in the words the range touches. Each word's 64 tests run in a
+/// branch-free pass (8 lanes wide with AVX2) and are packed into bits, so the caller visits the
+/// few maxima by their set bits instead of testing every sample again. Comparisons round
+/// nothing, so both builds agree exactly.
 #[inline]
 pub fn strict_maxima(
     rows: [&[f32]; 3],
     threshold: f32,
     columns: std::ops::Range<usize>,
-    maxima: &mut [bool],
+    mask: &mut [u64],
 ) {
     #[cfg(target_arch = "x86_64")]
     if has_avx2_fma() {
         // SAFETY: the CPU supports AVX2 (checked above).
-        return unsafe { strict_maxima_avx2(rows, threshold, columns, maxima) };
+        return unsafe { strict_maxima_avx2(rows, threshold, columns, mask) };
     }
-    strict_maxima_with(rows, threshold, columns, maxima);
+    strict_maxima_with(rows, threshold, columns, mask);
 }
 
+/// The AVX2 build: eight columns per compare, their signs gathered by `movemask`.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn strict_maxima_avx2(
     rows: [&[f32]; 3],
     threshold: f32,
     columns: std::ops::Range<usize>,
-    maxima: &mut [bool],
+    mask: &mut [u64],
 ) {
-    strict_maxima_with(rows, threshold, columns, maxima);
+    use std::arch::x86_64::{
+        _mm256_and_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_movemask_ps, _mm256_set1_ps,
+        _CMP_GT_OQ,
+    };
+    if columns.is_empty() {
+        return;
+    }
+    // Every vector load below reads columns [base − 1, base + 65) of a whole word inside
+    // `columns`, so within [columns.start − 1, columns.end + 1) — what the scalar test reads.
+    assert!(columns.start >= 1 && rows.iter().all(|r| r.len() > columns.end));
+    let t = _mm256_set1_ps(threshold);
+    let words = columns.start / 64..columns.end.div_ceil(64);
+    for (word, w) in mask[words.clone()].iter_mut().zip(words) {
+        let base = w * 64;
+        if !(columns.start <= base && base + 64 <= columns.end) {
+            *word = strict_word(rows, threshold, &columns, base);
+            continue;
+        }
+        let mut bits = 0u64;
+        for k in 0..8 {
+            let x = base + 8 * k;
+            // SAFETY: columns [x − 1, x + 9) lie in every row (asserted above).
+            let v = _mm256_loadu_ps(rows[1].as_ptr().add(x));
+            let mut keep = _mm256_cmp_ps::<_CMP_GT_OQ>(v, t);
+            for (r, row) in rows.iter().enumerate() {
+                for dx in 0..3 {
+                    if r == 1 && dx == 1 {
+                        continue;
+                    }
+                    let n = _mm256_loadu_ps(row.as_ptr().add(x + dx - 1));
+                    keep = _mm256_and_ps(keep, _mm256_cmp_ps::<_CMP_GT_OQ>(v, n));
+                }
+            }
+            bits |= (_mm256_movemask_ps(keep) as u32 as u64) << (8 * k);
+        }
+        *word = bits;
+    }
 }
 
-#[inline(always)]
+/// The portable build: each word's 64 tests in a pass the compiler vectorises, packed into bits.
 fn strict_maxima_with(
     [up, mid, down]: [&[f32]; 3],
     threshold: f32,
     columns: std::ops::Range<usize>,
-    maxima: &mut [bool],
+    mask: &mut [u64],
 ) {
-    for x in columns {
-        let v = mid[x];
-        maxima[x] = (v > threshold)
-            & (v > mid[x - 1])
-            & (v > mid[x + 1])
-            & (v > up[x - 1])
-            & (v > up[x])
-            & (v > up[x + 1])
-            & (v > down[x - 1])
-            & (v > down[x])
-            & (v > down[x + 1]);
+    if columns.is_empty() {
+        return;
     }
+    let words = columns.start / 64..columns.end.div_ceil(64);
+    for (word, w) in mask[words.clone()].iter_mut().zip(words) {
+        let base = w * 64;
+        if !(columns.start <= base && base + 64 <= columns.end) {
+            *word = strict_word([up, mid, down], threshold, &columns, base);
+            continue;
+        }
+        // A whole word inside the range (so base ≥ 1): fixed-size windows, which the
+        // compiler vectorises without bounds checks.
+        let window =
+            |r: &[f32]| -> [f32; 66] { r[base - 1..base + 65].try_into().expect("66 columns") };
+        let (u, m, d) = (window(up), window(mid), window(down));
+        let mut flags = [0u8; 64];
+        for (i, flag) in flags.iter_mut().enumerate() {
+            *flag = strict_at([&u, &m, &d], i + 1, threshold);
+        }
+        *word = pack_flags(&flags);
+    }
+}
+
+/// The word of bits starting at column `base`, tested one column at a time (the words at the
+/// ends of the range).
+#[inline(always)]
+fn strict_word(
+    rows: [&[f32]; 3],
+    threshold: f32,
+    columns: &std::ops::Range<usize>,
+    base: usize,
+) -> u64 {
+    (base.max(columns.start)..(base + 64).min(columns.end))
+        .filter(|&x| strict_at(rows, x, threshold) == 1)
+        .fold(0, |bits, x| bits | 1 << (x - base))
+}
+
+/// 1 when `mid[c]` exceeds `threshold` and its 8 neighbours in `[up, mid, down]`, else 0.
+#[inline(always)]
+fn strict_at([u, m, d]: [&[f32]; 3], c: usize, threshold: f32) -> u8 {
+    let v = m[c];
+    ((v > threshold)
+        & (v > m[c - 1])
+        & (v > m[c + 1])
+        & (v > u[c - 1])
+        & (v > u[c])
+        & (v > u[c + 1])
+        & (v > d[c - 1])
+        & (v > d[c])
+        & (v > d[c + 1])) as u8
+}
+
+/// 64 bytes of 0 or 1 as the bits of a word (byte i → bit i): eight bytes at a time, the
+/// multiply gathering each byte's low bit into the top byte (no carry reaches it).
+#[inline(always)]
+fn pack_flags(flags: &[u8; 64]) -> u64 {
+    let mut bits = 0u64;
+    for (k, chunk) in flags.chunks_exact(8).enumerate() {
+        let bytes = u64::from_le_bytes(chunk.try_into().expect("eight bytes"));
+        bits |= (bytes.wrapping_mul(0x0102_0408_1020_4080) >> 56) << (8 * k);
+    }
+    bits
+}
+
+/// The indices of the set bits of `mask` (bit x % 64 of word x / 64), in increasing order.
+#[inline]
+pub fn set_bits(mask: &[u64]) -> impl Iterator<Item = usize> + '_ {
+    mask.iter().enumerate().flat_map(|(w, &word)| {
+        let mut bits = word;
+        std::iter::from_fn(move || {
+            (bits != 0).then(|| {
+                let i = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                w * 64 + i
+            })
+        })
+    })
 }
 
 /// The largest value of `values`, or `floor` when none exceeds it. Eight independent lanes
@@ -283,6 +388,53 @@ pub fn max_or(values: &[f32], floor: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn strict_maxima_bits_are_the_plain_three_by_three_test() {
+        // Integers so that ties (which are not strict maxima) are frequent.
+        let mut state = 12345u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            ((state >> 16) % 7) as f32
+        };
+        let width = 203usize;
+        let rows: Vec<Vec<f32>> = (0..3)
+            .map(|_| (0..width).map(|_| next()).collect())
+            .collect();
+        let [up, mid, down] = [&rows[0][..], &rows[1][..], &rows[2][..]];
+        for columns in [1..width - 1, 5..70, 64..128, 63..65, 1..2] {
+            let mut mask = vec![u64::MAX; width.div_ceil(64)];
+            strict_maxima([up, mid, down], 2.0, columns.clone(), &mut mask);
+            let mut plain = vec![0u64; mask.len()];
+            strict_maxima_with([up, mid, down], 2.0, columns.clone(), &mut plain);
+            let expected: Vec<usize> = columns
+                .clone()
+                .filter(|&x| {
+                    let v = mid[x];
+                    v > 2.0
+                        && [up, mid, down]
+                            .iter()
+                            .flat_map(|r| &r[x - 1..=x + 1])
+                            .filter(|&&n| n >= v)
+                            .count()
+                            == 1
+                })
+                .collect();
+            let words = columns.start / 64..columns.end.div_ceil(64);
+            let found: Vec<usize> = set_bits(&mask[words.clone()])
+                .map(|x| x + words.start * 64)
+                .collect();
+            assert_eq!(found, expected, "columns {columns:?}");
+            assert_eq!(
+                mask[words.clone()],
+                plain[words],
+                "dispatched against plain"
+            );
+        }
+        let mut untouched = vec![u64::MAX; 4];
+        strict_maxima([up, mid, down], 2.0, 100..100, &mut untouched);
+        assert_eq!(untouched, [u64::MAX; 4], "an empty range writes no word");
+    }
 
     #[test]
     fn dispatched_loops_match_the_plain_ones() {

@@ -10,7 +10,7 @@ use super::plan::{harris_response, HarrisPlan};
 use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::pyramid::Pyramid;
 use crate::features::Candidate;
-use crate::simd::{max_or, strict_maxima, tensor_responses};
+use crate::simd::{max_or, set_bits, strict_maxima, tensor_responses};
 
 /// Rows `[first_row, first_row + rows)` of one scale's grid, for every orientation (layout
 /// `[θ][row][i]`).
@@ -449,16 +449,17 @@ fn suppress(
             }
             let first = pixel_rows.start.div_ceil(g).max(m);
             let end = pixel_rows.end.div_ceil(g).min(gh - m);
-            let mut maxima = vec![false; gw];
+            let mut maxima = vec![0u64; gw.div_ceil(64)];
             for y in first..end {
                 // Strict maxima of the 3×3 same-scale neighbourhood above the threshold, in a
-                // branch-free pass the compiler vectorises; the rare survivors get the rest.
+                // branch-free pass the compiler vectorises, as bits; the rare survivors get
+                // the rest.
                 let (up, mid, down) = (row(s, t, y - 1), row(s, t, y), row(s, t, y + 1));
                 strict_maxima([up, mid, down], threshold, m..gw - m, &mut maxima);
                 let py = y * g;
                 let below = (s > 0).then(|| adjacent(s - 1, py));
                 let above = (s + 1 < scales).then(|| adjacent(s + 1, py));
-                for x in (m..gw - m).filter(|&x| maxima[x]) {
+                for x in set_bits(&maxima) {
                     let v = mid[x];
                     let px = x * g;
                     let keep = below.as_ref().is_none_or(|a| a.at_most(px, v))
