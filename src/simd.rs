@@ -245,21 +245,25 @@ unsafe fn strict_maxima_avx2(
     if columns.is_empty() {
         return;
     }
-    // Every vector load below reads columns [base − 1, base + 65) of a whole word inside
-    // `columns`, so within [columns.start − 1, columns.end + 1) — what the scalar test reads.
-    assert!(columns.start >= 1 && rows.iter().all(|r| r.len() > columns.end));
+    let len = rows.iter().map(|r| r.len()).min().unwrap_or(0);
+    assert!(columns.start >= 1 && columns.end < len);
     let t = _mm256_set1_ps(threshold);
     let words = columns.start / 64..columns.end.div_ceil(64);
     for (word, w) in mask[words.clone()].iter_mut().zip(words) {
         let base = w * 64;
-        if !(columns.start <= base && base + 64 <= columns.end) {
-            *word = strict_word(rows, threshold, &columns, base);
-            continue;
-        }
         let mut bits = 0u64;
         for k in 0..8 {
             let x = base + 8 * k;
-            // SAFETY: columns [x − 1, x + 9) lie in every row (asserted above).
+            if x + 8 <= columns.start || x >= columns.end {
+                continue;
+            }
+            if x == 0 || x + 9 > len {
+                // The rows' ends: column by column (bits outside `columns` are cleared below).
+                let group = x.max(columns.start)..(x + 8).min(columns.end);
+                bits |= strict_word(rows, threshold, &group, base);
+                continue;
+            }
+            // SAFETY: columns [x − 1, x + 9) lie in every row (checked above).
             let v = _mm256_loadu_ps(rows[1].as_ptr().add(x));
             let mut keep = _mm256_cmp_ps::<_CMP_GT_OQ>(v, t);
             for (r, row) in rows.iter().enumerate() {
@@ -273,7 +277,11 @@ unsafe fn strict_maxima_avx2(
             }
             bits |= (_mm256_movemask_ps(keep) as u32 as u64) << (8 * k);
         }
-        *word = bits;
+        // Only the columns of the range: groups at its ends test a few columns beyond it.
+        let lo = columns.start.saturating_sub(base);
+        let hi = (columns.end - base).min(64);
+        let range = (u64::MAX >> (64 - (hi - lo))) << lo;
+        *word = bits & range;
     }
 }
 
@@ -307,8 +315,8 @@ fn strict_maxima_with(
     }
 }
 
-/// The word of bits starting at column `base`, tested one column at a time (the words at the
-/// ends of the range).
+/// The bits (bit x − `base` for column x) of the columns of `columns`, tested one at a time (at
+/// the ends of a range or of the rows).
 #[inline(always)]
 fn strict_word(
     rows: [&[f32]; 3],
@@ -402,7 +410,16 @@ mod tests {
             .map(|_| (0..width).map(|_| next()).collect())
             .collect();
         let [up, mid, down] = [&rows[0][..], &rows[1][..], &rows[2][..]];
-        for columns in [1..width - 1, 5..70, 64..128, 63..65, 1..2] {
+        for columns in [
+            1..width - 1,
+            5..70,
+            64..128,
+            63..65,
+            1..2,
+            3..200,
+            9..17,
+            190..202,
+        ] {
             let mut mask = vec![u64::MAX; width.div_ceil(64)];
             strict_maxima([up, mid, down], 2.0, columns.clone(), &mut mask);
             let mut plain = vec![0u64; mask.len()];
