@@ -160,9 +160,6 @@ impl CpuHarris {
             .max(1);
         // A multiple of every scale's step, so bands start on every grid's rows.
         let band_rows = (self.response_budget / row_bytes).max(4 * max_step) / max_step * max_step;
-        // Rows a band's suppression reads beyond its own: ±1 grid row of its scale, and the 3×3
-        // around the nearest sample of the adjacent scales (±1.5 of their steps).
-        let halo = 2 * max_step + 1;
         let (mut responses_time, mut nms_time) = (
             std::time::Duration::default(),
             std::time::Duration::default(),
@@ -182,6 +179,10 @@ impl CpuHarris {
             for (s, band) in bands.iter_mut().enumerate() {
                 let (gw, gh) = grids[s];
                 let g = plan.scales[s].step as usize;
+                // Rows of this scale the band's suppression reads beyond its own: ±1 grid row
+                // for its own samples, and the 3×3 around the nearest sample (±1.5 steps) for
+                // the adjacent scales'. A coarse scale's reach never widens a fine scale's band.
+                let halo = 2 * g + 1;
                 let first = y0.saturating_sub(halo) / g;
                 let last = ((y1 + halo) / g + 1).min(gh);
                 band.first_row = first;
