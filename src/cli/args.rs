@@ -111,8 +111,8 @@ pub struct DetectorFlags {
     /// Number of steered orientations N, spread over [0°, 180°) [default: 12].
     #[arg(long, value_name = "N")]
     pub orientations: Option<usize>,
-    /// Number of detection scales S (σ_D = 1.0 · √2^s: 11 span five octaves, σ_D 1–32)
-    /// [default: 11; slam: 3].
+    /// Number of detection scales S (σ_D = sigma0 · scale_step^s, 2^(s/3) by default: 16
+    /// span five octaves, σ_D 1–32) [default: 16; slam: 3 at step 1.4].
     #[arg(long, value_name = "S")]
     pub scales: Option<usize>,
     /// Keep at most K keypoints, the strongest [default: 500; match: 1000].

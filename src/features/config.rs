@@ -107,16 +107,17 @@ pub struct DetectorConfig {
     /// Standard deviation of the Gaussian basis filters, in pixels. Default 0.8 (1.0 for the
     /// second order, which SLAM's tracking preset keeps).
     pub basis_sigma: f32,
-    /// Number of detection scales S. Default 11: σ_D from 1 to 32 px, five octaves, whose
-    /// coarse scales run on the image pyramid (see [`crate::features::harris::plan`]).
+    /// Number of detection scales S. Default 16: σ_D from 1 to 32 px, five octaves of three
+    /// scales, whose coarse scales run on the image pyramid (see
+    /// [`crate::features::harris::plan`]).
     pub scales: usize,
     /// Finest differentiation scale σ_D, in pixels. Default 1.0.
     pub sigma0: f32,
-    /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default √2: two
-    /// scales per octave. Three per octave (`scales = 16`, `scale_step = 1.259921`) find
-    /// 1–8% more correct matches on the Oxford and generated sequences (a corner's response
-    /// peak moves with scale, so a finer sampling keeps a zoomed or blurred view's keypoints
-    /// closer) at 35–50% more time on the CPU (docs/EVALUATION.md, "Three scales per octave").
+    /// Ratio between successive scales (σ_D = sigma0 · scale_step^s). Default 2^(1/3): three
+    /// scales per octave, which find 1–8% more correct matches on the Oxford and generated
+    /// sequences than two (√2, with `scales = 11`; a corner's response peak moves with scale,
+    /// so a finer sampling keeps a zoomed or blurred view's keypoints closer), at 20–50% more
+    /// time on the CPU (docs/EVALUATION.md, "Three scales per octave").
     pub scale_step: f32,
     /// Exponent p of the scale normalisation: every derivative plane D_k is multiplied by
     /// σ_e^p (σ_e the effective scale) before the structure tensor, so R scales with σ_e^(4p).
@@ -187,9 +188,9 @@ impl Default for DetectorConfig {
             orientations: 12,
             basis: BasisOrder::First,
             basis_sigma: 0.8,
-            scales: 11,
+            scales: 16,
             sigma0: 1.0,
-            scale_step: std::f32::consts::SQRT_2,
+            scale_step: THREE_PER_OCTAVE,
             scale_normalization: 2.0,
             rank_normalization: 1.8,
             gamma: 1.5,
@@ -210,6 +211,9 @@ impl Default for DetectorConfig {
     }
 }
 
+/// 2^(1/3), the default ratio between successive scales: three per octave.
+pub const THREE_PER_OCTAVE: f32 = 1.259_921;
+
 /// Upper bound on orientations: the GPU's non-maximum suppression visits 27 neighbours per
 /// orientation in one invocation and lavapipe stops loops past 65,535 iterations.
 pub const MAX_ORIENTATIONS: usize = 180;
@@ -219,7 +223,7 @@ pub const MAX_SCALES: usize = 32;
 
 impl DetectorConfig {
     /// The configuration SLAM detects new landmarks with: 6 orientations and 3 fine scales
-    /// (σ_D 1–2, ranked towards the finest) instead of 12 and 11. Landmarks start at the
+    /// (σ_D 1–2, ranked towards the finest) instead of 12 and 16. Landmarks start at the
     /// finest keypoints, where the corner is, and are then followed by KLT and templates, so
     /// the extra orientations and coarse scales buy nothing there; the detection costs much
     /// less and the accuracy of the SLAM runs held or improved (CHANGELOG, issues 10 and 20).

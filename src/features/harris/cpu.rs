@@ -22,9 +22,9 @@ struct ScaleBand {
 }
 
 /// Bytes of response rows the CPU backend holds at once. The suppression runs over bands of
-/// image rows, so a whole 12-orientation stack of every scale — 2.9 GB at 24 MP for the
-/// default 11 scales — never exists at once; frames up to about 2 MP (1920×1080: 253 MiB at
-/// the defaults, 379 MiB at three scales per octave) fit in one band and pay no halo. Two
+/// image rows, so a whole 12-orientation stack of every scale — 4.3 GB at 24 MP for the
+/// default 16 scales — never exists at once; frames up to about 2 MP (1920×1080: 379 MiB at
+/// the defaults, 253 MiB at two scales per octave) fit in one band and pay no halo. Two
 /// bands there cost 20% more time.
 const RESPONSE_BUDGET_BYTES: usize = 512 << 20;
 
