@@ -452,9 +452,9 @@ fn suppress(
             let end = pixel_rows.end.div_ceil(g).min(gh - m);
             let mut maxima = vec![0u64; gw.div_ceil(64)];
             for y in first..end {
-                // Strict maxima of the 3×3 same-scale neighbourhood above the threshold, in a
-                // branch-free pass the compiler vectorises, as bits; the rare survivors get
-                // the rest.
+                // Strict maxima of the 3×3 same-scale neighbourhood above the threshold, as
+                // bits from a branch-free pass eight samples wide; the rare survivors, visited
+                // by their set bits, get the rest.
                 let (up, mid, down) = (row(s, t, y - 1), row(s, t, y), row(s, t, y + 1));
                 strict_maxima([up, mid, down], threshold, m..gw - m, &mut maxima);
                 let py = y * g;
