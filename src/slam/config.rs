@@ -653,6 +653,21 @@ mod tests {
     }
 
     #[test]
+    fn a_constant_velocity_key_left_out_keeps_its_default() {
+        let c: SlamConfig =
+            toml::from_str("[motion.constant-velocity]\nlinear_acceleration = 2\n").unwrap();
+        assert_eq!(
+            c.motion,
+            MotionModel::ConstantVelocity {
+                linear_acceleration: 2.0,
+                angular_acceleration: 6.0,
+            }
+        );
+        let c: SlamConfig = toml::from_str("[motion.constant-velocity]\n").unwrap();
+        assert_eq!(c.motion, MotionModel::default());
+    }
+
+    #[test]
     fn the_serialised_config_reads_back() {
         let mut c = SlamConfig::default();
         c.map.grid = [4, 3];

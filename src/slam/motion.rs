@@ -17,11 +17,14 @@ use super::rotation::{self, Quat};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", deny_unknown_fields)]
 pub enum MotionModel {
-    /// Camera state (r, q, v, ω), 13 entries; unknown accelerations as white noise.
+    /// Camera state (r, q, v, ω), 13 entries; unknown accelerations as white noise. A key
+    /// left out of `[slam.motion.constant-velocity]` keeps its default.
     ConstantVelocity {
-        /// Standard deviation of the linear acceleration, m/s².
+        /// Standard deviation of the linear acceleration, map units/s² (default 1).
+        #[serde(default = "default_linear_acceleration")]
         linear_acceleration: f64,
-        /// Standard deviation of the angular acceleration, rad/s².
+        /// Standard deviation of the angular acceleration, rad/s² (default 6).
+        #[serde(default = "default_angular_acceleration")]
         angular_acceleration: f64,
     },
     /// A camera on a wheeled robot or a car, looking forward with its axes along the
@@ -51,10 +54,18 @@ impl Default for MotionModel {
         // hand-held camera in a room about 0.3. 1 unit/s² covers both; 4 let the predictions
         // of a car wander by tens of pixels (CHANGELOG, issue 10).
         MotionModel::ConstantVelocity {
-            linear_acceleration: 1.0,
-            angular_acceleration: 6.0,
+            linear_acceleration: default_linear_acceleration(),
+            angular_acceleration: default_angular_acceleration(),
         }
     }
+}
+
+fn default_linear_acceleration() -> f64 {
+    1.0
+}
+
+fn default_angular_acceleration() -> f64 {
+    6.0
 }
 
 /// `[slam.motion.wheeled]`: a vehicle's constant velocity, held in its own frame so that it
