@@ -653,7 +653,7 @@ mod tests {
     }
 
     #[test]
-    fn a_constant_velocity_key_left_out_keeps_its_default() {
+    fn a_motion_key_left_out_keeps_its_default() {
         let c: SlamConfig =
             toml::from_str("[motion.constant-velocity]\nlinear_acceleration = 2\n").unwrap();
         assert_eq!(
@@ -665,6 +665,16 @@ mod tests {
         );
         let c: SlamConfig = toml::from_str("[motion.constant-velocity]\n").unwrap();
         assert_eq!(c.motion, MotionModel::default());
+        let c: SlamConfig = toml::from_str("[motion.odometry]\nrotation_floor = 0.01\n").unwrap();
+        let MotionModel::Odometry {
+            translation_fraction,
+            rotation_floor,
+            ..
+        } = c.motion
+        else {
+            panic!("not odometry: {:?}", c.motion);
+        };
+        assert_eq!((translation_fraction, rotation_floor), (0.05, 0.01));
     }
 
     #[test]

@@ -34,15 +34,20 @@ pub enum MotionModel {
     /// [`WheeledMotion`]). An in-place turn then moves the camera sideways by d·ω, tied to the
     /// turn instead of free, and d, once seen in a turn, carries the map's unit to the next.
     Wheeled(WheeledMotion),
-    /// Camera state (r, q), 7 entries; motion measured by wheel odometry (u_k of eq 15).
+    /// Camera state (r, q), 7 entries; motion measured by wheel odometry (u_k of eq 15). A
+    /// key left out of `[slam.motion.odometry]` keeps its default.
     Odometry {
-        /// Translation noise as a fraction of the distance travelled.
+        /// Translation noise as a fraction of the distance travelled (default 0.05).
+        #[serde(default = "default_odometry_fraction")]
         translation_fraction: f64,
-        /// Rotation noise as a fraction of the angle turned.
+        /// Rotation noise as a fraction of the angle turned (default 0.05).
+        #[serde(default = "default_odometry_fraction")]
         rotation_fraction: f64,
-        /// Floor on the translation noise per step, metres.
+        /// Floor on the translation noise per step, metres (default 0.002).
+        #[serde(default = "default_odometry_floor")]
         translation_floor: f64,
-        /// Floor on the rotation noise per step, radians.
+        /// Floor on the rotation noise per step, radians (default 0.002).
+        #[serde(default = "default_odometry_floor")]
         rotation_floor: f64,
     },
 }
@@ -66,6 +71,14 @@ fn default_linear_acceleration() -> f64 {
 
 fn default_angular_acceleration() -> f64 {
     6.0
+}
+
+fn default_odometry_fraction() -> f64 {
+    0.05
+}
+
+fn default_odometry_floor() -> f64 {
+    0.002
 }
 
 /// `[slam.motion.wheeled]`: a vehicle's constant velocity, held in its own frame so that it
@@ -128,10 +141,10 @@ impl MotionModel {
     /// The default odometry model.
     pub fn odometry() -> Self {
         MotionModel::Odometry {
-            translation_fraction: 0.05,
-            rotation_fraction: 0.05,
-            translation_floor: 0.002,
-            rotation_floor: 0.002,
+            translation_fraction: default_odometry_fraction(),
+            rotation_fraction: default_odometry_fraction(),
+            translation_floor: default_odometry_floor(),
+            rotation_floor: default_odometry_floor(),
         }
     }
 
