@@ -325,19 +325,22 @@ impl Slam {
             self.remove(&all);
         }
         let baseline = (r - b.position).norm();
-        self.filter.seat(&Seat {
+        let velocity_variance = |v: &Vector3<f64>| {
+            (self.config.start.velocity_sigma_fraction * v.norm()).powi(2)
+                + self.config.filter.velocity_sigma.powi(2)
+        };
+        let mut seat = Seat {
             position: r,
             orientation: q,
             position_variance: (self.config.start.position_sigma_per_baseline * baseline).powi(2)
                 + 1e-12,
             orientation_variance: self.config.start.orientation_variance,
             velocity,
-            velocity_variance: (self.config.start.velocity_sigma_fraction * velocity.norm())
-                .powi(2)
-                + self.config.filter.velocity_sigma.powi(2),
+            velocity_variance: velocity_variance(&velocity),
             angular_velocity: omega,
             angular_velocity_variance: self.config.filter.angular_velocity_sigma.powi(2),
-        });
+        };
+        self.filter.seat(&seat);
         // Landmarks at the triangulated inliers, spread over the grid.
         let inliers: Vec<(Vector2<f64>, f64, f64)> = (0..pairs.len())
             .filter(|&i| pose.inliers[i])
@@ -353,6 +356,24 @@ impl Slam {
             .collect();
         let initialising = matches!(self.phase, Phase::Starting(_));
         self.revised = self.place_between(b, pose, scale, initialising);
+        // A camera that sped up (or slowed down) through the wait moves at the seat faster
+        // (slower) than the wait's mean: with `accelerated_seat`, the velocity at the seat
+        // comes from the placed frames when a constant velocity does not explain them.
+        let track: Vec<(f64, Vector3<f64>)> =
+            std::iter::once((b.timestamp - timestamp, b.position))
+                .chain(
+                    self.revised
+                        .iter()
+                        .map(|f| (f.timestamp - timestamp, Vector3::from(f.position))),
+                )
+                .chain(std::iter::once((0.0, r)))
+                .collect();
+        let accelerated = self.config.start.accelerated_seat;
+        if let Some(v) = velocity_at_end(&track).filter(|_| accelerated) {
+            seat.velocity = v;
+            seat.velocity_variance = velocity_variance(&v);
+            self.filter.seat(&seat);
+        }
         self.phase = Phase::Tracking;
         let visible = self.visible_pixels();
         let limit = (2 * self.config.map.target_visible).saturating_sub(visible.len());
@@ -423,5 +444,81 @@ impl Slam {
                 }
             })
             .collect()
+    }
+}
+
+/// Fewest positions (the reference, the placed frames, the seat) for a start's velocity to be
+/// fitted with an acceleration.
+const MIN_ACCELERATION_SAMPLES: usize = 8;
+
+/// F statistic above which the acceleration of a start's wait is taken as real: the quadratic
+/// term must explain this many times the residual variance per degree of freedom (for 3 and
+/// 15 or more degrees of freedom, a chance of well under 0.1%).
+const ACCELERATION_F: f64 = 10.0;
+
+/// The velocity at t = 0 of positions `track` (time, position; times up to 0) when they
+/// accelerate: least squares of a quadratic in time on each axis, kept over a straight line
+/// when its quadratic term passes an F test ([`ACCELERATION_F`]); `None` when a constant
+/// velocity explains them or they are too few.
+fn velocity_at_end(track: &[(f64, Vector3<f64>)]) -> Option<Vector3<f64>> {
+    let n = track.len();
+    if n < MIN_ACCELERATION_SAMPLES {
+        return None;
+    }
+    // Normal equations of the fit on the powers 0..terms of t, all three axes at once.
+    let fit = |terms: usize| -> Option<(nalgebra::DMatrix<f64>, f64)> {
+        let design = nalgebra::DMatrix::from_fn(n, terms, |i, k| track[i].0.powi(k as i32));
+        let values = nalgebra::DMatrix::from_fn(n, 3, |i, axis| track[i].1[axis]);
+        let gram = design.transpose() * &design;
+        let coefficients = gram.cholesky()?.solve(&(design.transpose() * &values));
+        let rss = (&design * &coefficients - values).norm_squared();
+        Some((coefficients, rss))
+    };
+    let (_, rss_line) = fit(2)?;
+    let (quadratic, rss_quadratic) = fit(3)?;
+    let dof = (3 * (n - 3)) as f64;
+    let f = ((rss_line - rss_quadratic) / 3.0) / (rss_quadratic / dof).max(1e-300);
+    (f > ACCELERATION_F)
+        .then(|| Vector3::new(quadratic[(1, 0)], quadratic[(1, 1)], quadratic[(1, 2)]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Positions every 1/30 s up to t = 0 along `path`, with a deterministic ±`noise` wobble.
+    fn track(
+        path: impl Fn(f64) -> Vector3<f64>,
+        count: usize,
+        noise: f64,
+    ) -> Vec<(f64, Vector3<f64>)> {
+        (0..count)
+            .map(|i| {
+                let t = (i as f64 - (count - 1) as f64) / 30.0;
+                let wobble = Vector3::new(
+                    (i as f64 * 1.7).sin(),
+                    (i as f64 * 2.3).cos(),
+                    (i as f64 * 0.9).sin(),
+                );
+                (t, path(t) + wobble * noise)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_start_from_rest_seats_at_its_final_velocity_and_a_steady_one_keeps_the_mean() {
+        // From rest at t = −0.5 s with 2 units/s² along x: 1 unit/s at the seat, against a
+        // mean of 0.5 over the wait.
+        let accelerating = track(|t| Vector3::new((t + 0.5).powi(2), 0.0, 0.0), 16, 1e-3);
+        let v = velocity_at_end(&accelerating).expect("an acceleration this clear is taken");
+        assert!((v - Vector3::new(1.0, 0.0, 0.0)).norm() < 0.05, "{v}");
+        // A steady camera with the same wobble: the straight line explains it.
+        let steady = track(|t| Vector3::new(0.5 * t, 0.2 * t, 0.0), 16, 1e-3);
+        assert_eq!(velocity_at_end(&steady), None);
+        // Too few positions to tell.
+        assert_eq!(
+            velocity_at_end(&accelerating[..MIN_ACCELERATION_SAMPLES - 1]),
+            None
+        );
     }
 }
