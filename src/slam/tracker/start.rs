@@ -359,20 +359,21 @@ impl Slam {
         // A camera that sped up (or slowed down) through the wait moves at the seat faster
         // (slower) than the wait's mean: with `accelerated_seat`, the velocity at the seat
         // comes from the placed frames when a constant velocity does not explain them.
-        let track: Vec<(f64, Vector3<f64>)> =
-            std::iter::once((b.timestamp - timestamp, b.position))
-                .chain(
-                    self.revised
-                        .iter()
-                        .map(|f| (f.timestamp - timestamp, Vector3::from(f.position))),
-                )
-                .chain(std::iter::once((0.0, r)))
-                .collect();
-        let accelerated = self.config.start.accelerated_seat;
-        if let Some(v) = velocity_at_end(&track).filter(|_| accelerated) {
-            seat.velocity = v;
-            seat.velocity_variance = velocity_variance(&v);
-            self.filter.seat(&seat);
+        if self.config.start.accelerated_seat {
+            let track: Vec<(f64, Vector3<f64>)> =
+                std::iter::once((b.timestamp - timestamp, b.position))
+                    .chain(
+                        self.revised
+                            .iter()
+                            .map(|f| (f.timestamp - timestamp, Vector3::from(f.position))),
+                    )
+                    .chain(std::iter::once((0.0, r)))
+                    .collect();
+            if let Some(v) = velocity_at_end(&track) {
+                seat.velocity = v;
+                seat.velocity_variance = velocity_variance(&v);
+                self.filter.seat(&seat);
+            }
         }
         self.phase = Phase::Tracking;
         let visible = self.visible_pixels();
@@ -453,7 +454,7 @@ const MIN_ACCELERATION_SAMPLES: usize = 8;
 
 /// F statistic above which the acceleration of a start's wait is taken as real: the quadratic
 /// term must explain this many times the residual variance per degree of freedom (for 3 and
-/// 15 or more degrees of freedom, a chance of well under 0.1%).
+/// 15 or more degrees of freedom, a chance under 0.1%).
 const ACCELERATION_F: f64 = 10.0;
 
 /// The velocity at t = 0 of positions `track` (time, position; times up to 0) when they
