@@ -369,6 +369,8 @@ impl Slam {
                     )
                     .chain(std::iter::once((0.0, r)))
                     .collect();
+            // Seated again rather than once after the placing: the placed frames' reports
+            // read the seated filter, and a seat only overwrites the camera block.
             if let Some(v) = velocity_at_end(&track) {
                 seat.velocity = v;
                 seat.velocity_variance = velocity_variance(&v);
