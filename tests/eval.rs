@@ -152,3 +152,22 @@ fn malformed_inputs_are_named() {
     }
     assert_eq!(homography::project(&IDENTITY, 3.0, 4.0), Some((3.0, 4.0)));
 }
+
+#[test]
+fn a_negative_region_margin_is_refused_by_name() {
+    let out = common::steernav()
+        .args([
+            "eval",
+            "rotation",
+            "--detectors",
+            "steernav",
+            "--backend",
+            "cpu",
+        ])
+        .args(["--region-margin=-1", "--images"])
+        .arg(common::sample())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--region-margin"));
+}

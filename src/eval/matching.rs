@@ -17,6 +17,7 @@ use super::homography::{project, Homography};
 use super::overlap::overlap_repeatability;
 use super::recall::KeypointSet;
 use super::repeatability::repeatability;
+use super::sweep::common_region;
 use crate::features::matching::{verify, PointPair, Verification};
 
 /// Thresholds (px) of the MMA curve: 1, 2, … , 10.
@@ -87,7 +88,9 @@ pub fn mutual_ratio_matches(a: &KeypointSet, b: &KeypointSet, ratio: f64) -> Vec
 
 /// Matches two views (`a` in the view of size `size_a`, `b` in `size_b`) and judges the
 /// matches and the keypoints against the true map `h` (view a → view b); `margin` is the
-/// border the repeatability leaves out.
+/// border the repeatabilities leave out, and `region_sigmas` the region each keypoint must have
+/// inside both views to count in them ([`super::overlap::inside_both_views`]); the matches are
+/// judged on every keypoint.
 #[allow(clippy::too_many_arguments)]
 pub fn judge_pair(
     detector: &str,
@@ -97,7 +100,7 @@ pub fn judge_pair(
     b: &KeypointSet,
     size_b: (u32, u32),
     h: &Homography,
-    (ratio, margin): (f64, f64),
+    (ratio, margin, region_sigmas): (f64, f64, f64),
 ) -> PairMatching {
     let matches = mutual_ratio_matches(a, b, ratio);
     let mut correct = [0usize; MMA_THRESHOLDS];
@@ -120,6 +123,7 @@ pub fn judge_pair(
         .collect();
     let fitted = verify(&pairs, Verification::Homography, 3.0, 10_000, 7).model;
     let corner_error = fitted.and_then(|m| corner_error(&m, h, size_a));
+    let (ra, rb) = common_region(a, size_a, b, size_b, h, region_sigmas);
     PairMatching {
         detector: detector.to_string(),
         image: image.to_string(),
@@ -127,9 +131,9 @@ pub fn judge_pair(
         matches: matches.len(),
         correct,
         corner_error,
-        repeatability_3px: repeatability(&a.points, size_a, &b.points, size_b, h, 3.0, margin)
+        repeatability_3px: repeatability(&ra.points, size_a, &rb.points, size_b, h, 3.0, margin)
             .ratio,
-        repeatability_overlap: overlap_repeatability(a, size_a, b, size_b, h, margin)
+        repeatability_overlap: overlap_repeatability(&ra, size_a, &rb, size_b, h, margin)
             .map(|r| r.ratio),
     }
 }
@@ -280,7 +284,16 @@ mod tests {
             descriptors: Descriptors::Float(descriptors),
             scales: vec![2.0; 60],
         };
-        let r = judge_pair("t", "p", &a, (300, 200), &b, (300, 200), &h, (0.8, 10.0));
+        let r = judge_pair(
+            "t",
+            "p",
+            &a,
+            (300, 200),
+            &b,
+            (300, 200),
+            &h,
+            (0.8, 10.0, 3.0),
+        );
         assert_eq!((r.matches, r.correct[0]), (60, 60));
         assert!(r.repeatability_3px == 1.0 && r.repeatability_overlap == Some(1.0));
         assert!(r.corner_error.unwrap() < 1e-6 && r.accurate(1.0));
@@ -294,7 +307,7 @@ mod tests {
             &b,
             (300, 200),
             &wrong,
-            (0.8, 10.0),
+            (0.8, 10.0, 3.0),
         );
         assert_eq!((r.matches, r.correct[9]), (60, 0));
         assert!(!r.accurate(5.0) && r.mma(10) == 0.0);

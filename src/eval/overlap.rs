@@ -33,6 +33,38 @@ fn local_scale(h: &Homography, x: f64, y: f64) -> Option<f64> {
     (s.is_finite() && s > 0.0).then_some(s)
 }
 
+/// The points of `set` (in a view of `size`) whose region (a disc of `region_sigmas` × the
+/// point's scale) lies inside their own view and, mapped by `h` (this view → the other, through
+/// its local scale), inside the other view of `other`: the common region of eq 11 for points
+/// that stand for regions. A point whose region reaches past a border measures scene that one
+/// view does not see (on a rotated view's canvas, the black corners), so its twin cannot be
+/// judged; the Oxford protocol likewise keeps only regions inside both images. A set without
+/// scales, or `region_sigmas` 0, is returned whole (the centre's `margin` still applies later).
+pub fn inside_both_views(
+    set: &KeypointSet,
+    size: (u32, u32),
+    other: (u32, u32),
+    h: &Homography,
+    region_sigmas: f64,
+) -> KeypointSet {
+    if region_sigmas <= 0.0 || set.scales.len() != set.points.len() {
+        return set.clone();
+    }
+    let room = |(x, y): (f64, f64), (w, hgt): (u32, u32)| {
+        x.min(y).min(w as f64 - 1.0 - x).min(hgt as f64 - 1.0 - y)
+    };
+    let keep: Vec<usize> = (0..set.points.len())
+        .filter(|&i| {
+            let (x, y) = set.points[i];
+            let radius = region_sigmas * set.scales[i];
+            let mapped = project(h, x, y).zip(local_scale(h, x, y));
+            room((x, y), size) >= radius
+                && mapped.is_some_and(|(q, s)| room(q, other) >= radius * s)
+        })
+        .collect();
+    set.select(&keep)
+}
+
 /// Overlap error 1 − |A ∩ B| / |A ∪ B| of discs of radii `r1`, `r2` whose centres are `d` apart.
 pub fn disc_overlap_error(r1: f64, r2: f64, d: f64) -> f64 {
     let (a1, a2) = (
@@ -155,5 +187,36 @@ mod tests {
             ..b
         };
         assert!(overlap_repeatability(&a, (200, 150), &unknown, (400, 300), &h, 0.0).is_none());
+    }
+
+    #[test]
+    fn a_region_past_either_border_leaves_the_common_region() {
+        let set = |points: Vec<(f64, f64)>, scales: Vec<f64>| KeypointSet {
+            descriptors: Descriptors::Float(vec![vec![0.0]; points.len()]),
+            points,
+            scales,
+        };
+        // View 2 is view 1 shifted 100 px right on a canvas 200 px wider, and zoomed ×2.
+        let h = [2.0, 0.0, 100.0, 0.0, 2.0, 0.0, 0.0, 0.0, 1.0];
+        let a = set(
+            vec![(20.0, 50.0), (20.0, 50.0), (90.0, 50.0), (180.0, 50.0)],
+            vec![2.0, 10.0, 10.0, 10.0],
+        );
+        // 20 px from view 1's left border: a scale of 2 (region 6 px) stays, a scale of 10
+        // (region 30 px) goes; at x = 180, 19 px from the right border, scale 10 goes too.
+        let kept = inside_both_views(&a, (200, 100), (600, 200), &h, 3.0);
+        assert_eq!(kept.points, vec![(20.0, 50.0), (90.0, 50.0)]);
+        assert_eq!(kept.scales, vec![2.0, 10.0]);
+        // Mapped into view 2, (90, 50) lands at (280, 100) with a region of 60 px: inside
+        // a 600×200 view, not a 600×150 one.
+        let kept = inside_both_views(&a, (200, 100), (600, 150), &h, 3.0);
+        assert_eq!(kept.points, vec![(20.0, 50.0)]);
+        // Centres only with 0, and for a set without scales.
+        assert_eq!(inside_both_views(&a, (200, 100), (600, 150), &h, 0.0), a);
+        let bare = set(a.points.clone(), Vec::new());
+        assert_eq!(
+            inside_both_views(&bare, (200, 100), (600, 150), &h, 3.0),
+            bare
+        );
     }
 }

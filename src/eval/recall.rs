@@ -93,6 +93,27 @@ pub struct KeypointSet {
 }
 
 impl KeypointSet {
+    /// The points at `keep` (indices in order), with their descriptors and scales.
+    pub fn select(&self, keep: &[usize]) -> Self {
+        let descriptors = match &self.descriptors {
+            Descriptors::Float(v) => {
+                Descriptors::Float(keep.iter().map(|&i| v[i].clone()).collect())
+            }
+            Descriptors::Binary(v) => {
+                Descriptors::Binary(keep.iter().map(|&i| v[i].clone()).collect())
+            }
+        };
+        Self {
+            points: keep.iter().map(|&i| self.points[i]).collect(),
+            descriptors,
+            scales: if self.scales.len() == self.points.len() {
+                keep.iter().map(|&i| self.scales[i]).collect()
+            } else {
+                Vec::new()
+            },
+        }
+    }
+
     /// The `n` strongest.
     pub fn top(&self, n: usize) -> Self {
         Self {

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::homography::{self, from_affine, Homography};
 use super::matching::{judge_pair, PairMatching};
+use super::overlap::{inside_both_views, REGION_SIGMAS};
 use super::peers::PeerRunner;
 use super::recall::{recall, Descriptors, KeypointSet};
 use super::repeatability::repeatability;
@@ -44,6 +45,10 @@ pub struct EvalOptions {
     pub max_keypoints: usize,
     /// Points closer than this to an image border are left out of the common region.
     pub margin: f64,
+    /// Points whose region (a disc of this many times their scale) reaches past either view's
+    /// border are left out of the common region too ([`inside_both_views`]); 0 judges centres
+    /// only.
+    pub region_sigmas: f64,
     /// Lowe's ratio for the recall's nearest-neighbour matching.
     pub ratio: f64,
 }
@@ -54,6 +59,7 @@ impl Default for EvalOptions {
             eps: vec![1.5, 2.0, 3.0],
             max_keypoints: 500,
             margin: 10.0,
+            region_sigmas: REGION_SIGMAS,
             ratio: 0.8,
         }
     }
@@ -88,7 +94,14 @@ fn judge(
     h: &Homography,
     opts: &EvalOptions,
 ) {
-    let (a, b) = (a.top(opts.max_keypoints), b.top(opts.max_keypoints));
+    let (a, b) = common_region(
+        &a.top(opts.max_keypoints),
+        sa,
+        &b.top(opts.max_keypoints),
+        sb,
+        h,
+        opts.region_sigmas,
+    );
     for &eps in &opts.eps {
         let r = repeatability(&a.points, sa, &b.points, sb, h, eps, opts.margin);
         let rc = recall(&a, sa, &b, sb, h, eps, opts.margin, opts.ratio);
@@ -101,6 +114,26 @@ fn judge(
             recall: rc.recall,
             count: (r.count1 + r.count2) as f64 / 2.0,
         });
+    }
+}
+
+/// Both views' points cut to those whose regions lie inside both views
+/// ([`inside_both_views`]; `h` maps view a to view b). A singular `h` leaves them whole: the
+/// correspondences then find no common region and say why.
+pub fn common_region(
+    a: &KeypointSet,
+    sa: (u32, u32),
+    b: &KeypointSet,
+    sb: (u32, u32),
+    h: &Homography,
+    region_sigmas: f64,
+) -> (KeypointSet, KeypointSet) {
+    match homography::invert(h) {
+        Some(back) => (
+            inside_both_views(a, sa, sb, h, region_sigmas),
+            inside_both_views(b, sb, sa, &back, region_sigmas),
+        ),
+        None => (a.clone(), b.clone()),
     }
 }
 
@@ -289,7 +322,7 @@ pub fn homography_sequence(
         |name: &str, k: usize, a: &KeypointSet, b: &KeypointSet, s2: (u32, u32), h| {
             let (a, b) = (a.top(opts.max_keypoints), b.top(opts.max_keypoints));
             let image = format!("{seq}/img{k}");
-            let settings = (opts.ratio, opts.margin);
+            let settings = (opts.ratio, opts.margin, opts.region_sigmas);
             matching.push(judge_pair(name, &image, &a, s1, &b, s2, h, settings));
         };
     if let Some(det) = steernav {

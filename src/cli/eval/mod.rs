@@ -44,6 +44,12 @@ pub(super) struct EvalArgs {
     /// Points closer than this many pixels to a border are left out of the common region.
     #[arg(long, default_value_t = 10.0, value_name = "PX")]
     margin: f64,
+    /// Points whose region, a disc of this many times their scale (the overlap criterion's),
+    /// reaches past either view's border are left out of the common region too, as in the
+    /// Oxford protocol (a coarse keypoint beside a rotated view's black corner measures what
+    /// the other view never saw); 0 judges the centres only, with --margin.
+    #[arg(long, default_value_t = 3.0, value_name = "SIGMAS")]
+    region_margin: f64,
     /// Lowe's ratio for the nearest-neighbour matching behind recall.
     #[arg(long, default_value_t = 0.8)]
     ratio: f64,
@@ -84,9 +90,12 @@ impl EvalArgs {
         if self.keypoints == 0
             || !self.margin.is_finite()
             || self.margin < 0.0
+            || !(self.region_margin.is_finite() && self.region_margin >= 0.0)
             || !(0.0..=1.0).contains(&self.ratio)
         {
-            bail!("--keypoints must be ≥ 1, --margin finite and ≥ 0, --ratio in [0, 1]");
+            bail!(
+                "--keypoints must be ≥ 1, --margin and --region-margin finite and ≥ 0, --ratio in [0, 1]"
+            );
         }
         let wanted: Vec<String> = if self.detectors == "all" {
             std::iter::once("steernav".to_string())
@@ -153,6 +162,7 @@ impl EvalArgs {
                 eps,
                 max_keypoints: self.keypoints,
                 margin: self.margin,
+                region_sigmas: self.region_margin,
                 ratio: self.ratio,
             },
         })
