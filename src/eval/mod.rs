@@ -6,7 +6,7 @@ pub mod figure;
 pub mod generate;
 pub mod homography;
 pub mod matching;
-pub(crate) mod overlap;
+pub mod overlap;
 pub mod peers;
 pub mod recall;
 pub mod repeatability;
