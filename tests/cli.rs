@@ -530,6 +530,26 @@ fn bench_slam_suite_times_the_drive_and_the_walk() {
         assert!(r["median_total_ms"].as_f64().unwrap() > 0.0, "{r}");
         assert!(r["detections"].as_u64().unwrap() >= 1, "{r}");
     }
+    // It reads the [slam] table as `steernav slam` does: a bad value is refused by name.
+    let dir = tempfile::tempdir().unwrap();
+    let settings = dir.path().join("s.toml");
+    std::fs::write(&settings, "[slam.map]\nmax_landmarks = 4\n").unwrap();
+    let out = steernav()
+        .args([
+            "bench",
+            "--suite",
+            "slam",
+            "--backend",
+            "cpu",
+            "--frames",
+            "10",
+        ])
+        .arg("--config")
+        .arg(&settings)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("slam.map.max_landmarks"));
 }
 
 #[test]

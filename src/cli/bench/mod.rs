@@ -79,7 +79,8 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
             backends.push(b);
         }
     }
-    let config = cmd.flags.apply(cmd.config.settings()?.detector)?;
+    let settings = cmd.config.settings()?;
+    let config = cmd.flags.apply(settings.detector.clone())?;
     let adapter = if backends.contains(&Backend::Gpu) {
         match steernav::GpuContext::shared() {
             Ok(ctx) => Some(format!(
@@ -109,7 +110,18 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<ExitCode> {
             );
         }
         bar.set_length((sizes.len() * slam::MOTIONS.len() * backends.len() * cmd.frames) as u64);
-        let rows = slam::run(&sizes, &backends, cmd.frames, || bar.inc(1))?;
+        // As `steernav slam` reads them: the file's [slam] table, its [detector] keys over
+        // the tracking preset, the flags over both.
+        let detector = cmd
+            .flags
+            .apply(settings.detector_over(DetectorConfig::tracking())?)?;
+        let rows = slam::run(
+            &sizes,
+            &backends,
+            cmd.frames,
+            (&detector, &settings.slam),
+            || bar.inc(1),
+        )?;
         bar.finish_and_clear();
         if cmd.json {
             println!("{}", serde_json::to_string_pretty(&rows)?);

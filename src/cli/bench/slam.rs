@@ -41,12 +41,14 @@ pub struct SlamBenchRow {
 }
 
 /// Runs a generated 10 Hz drive and a 30 Hz walk through furnished rooms, `frames` frames
-/// each, at each size on each backend, with the default SLAM configuration and the tracking
-/// detector; `progress` is called once per frame.
+/// each, at each size on each backend, with the given detector and SLAM settings (`steernav
+/// slam`'s: the tracking preset and the default `SlamConfig` unless a settings file changes
+/// them); `progress` is called once per frame.
 pub fn run(
     sizes: &[(u32, u32)],
     backends: &[Backend],
     frames: usize,
+    (detector_config, slam_config): (&DetectorConfig, &SlamConfig),
     mut progress: impl FnMut(),
 ) -> Result<Vec<SlamBenchRow>> {
     let mut rows = Vec::new();
@@ -55,8 +57,8 @@ pub fn run(
             let seq = SyntheticSequence::new(sequence(motion, width, height, frames))?;
             let images: Vec<_> = (0..seq.poses.len()).map(|k| seq.render(k)).collect();
             for &backend in backends {
-                let detector = Detector::new(&DetectorConfig::tracking(), backend)?;
-                let mut slam = Slam::new(seq.camera.clone(), SlamConfig::default())?;
+                let detector = Detector::new(detector_config, backend)?;
+                let mut slam = Slam::new(seq.camera.clone(), slam_config.clone())?;
                 let mut reports: Vec<FrameReport> = Vec::with_capacity(images.len());
                 for (image, pose) in images.iter().zip(&seq.poses) {
                     reports.push(slam.process(image, pose.timestamp, None, &detector)?);
@@ -147,7 +149,7 @@ fn summarise(
 /// The rows as a text table.
 pub fn table(rows: &[SlamBenchRow]) -> String {
     let mut out = String::from(
-        "SLAM per frame (generated 10 Hz drive and 30 Hz walk, default SlamConfig, tracking detector)\n\
+        "SLAM per frame (generated 10 Hz drive and 30 Hz walk; the [slam] and [detector] settings `steernav slam` would use)\n\
          motion  backend  size        frames  median ms  p90 ms  frames/s  detect ms  assoc ms  filter ms  detections\n",
     );
     for r in rows {
