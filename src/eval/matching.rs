@@ -14,10 +14,9 @@
 use rayon::prelude::*;
 
 use super::homography::{project, Homography};
-use super::overlap::overlap_repeatability;
+use super::overlap::{common_region, overlap_repeatability};
 use super::recall::KeypointSet;
 use super::repeatability::repeatability;
-use super::sweep::common_region;
 use crate::features::matching::{verify, PointPair, Verification};
 
 /// Thresholds (px) of the MMA curve: 1, 2, … , 10.

@@ -7,10 +7,13 @@
 //! it however close it is, so the figure shows what the pixel criterion cannot: whether the
 //! scales follow a zoom.
 //!
+//! The same discs decide which keypoints eq 11 judges at all ([`common_region`]): only those
+//! whose region lies inside both views.
+//!
 //! Discs stand in for the protocol's ellipses: exact under zoom and rotation, an approximation
 //! under the perspective of a viewpoint change.
 
-use super::homography::{project, Homography};
+use super::homography::{invert, project, Homography};
 use super::recall::KeypointSet;
 use super::repeatability::{correspondences, Repeatability};
 
@@ -63,6 +66,26 @@ pub fn inside_both_views(
         })
         .collect();
     set.select(&keep)
+}
+
+/// Both views' points cut to those whose regions lie inside both views
+/// ([`inside_both_views`]; `h` maps view a to view b). A singular `h` leaves them whole: the
+/// correspondences then find no common region and say why.
+pub fn common_region(
+    a: &KeypointSet,
+    sa: (u32, u32),
+    b: &KeypointSet,
+    sb: (u32, u32),
+    h: &Homography,
+    region_sigmas: f64,
+) -> (KeypointSet, KeypointSet) {
+    match invert(h) {
+        Some(back) => (
+            inside_both_views(a, sa, sb, h, region_sigmas),
+            inside_both_views(b, sb, sa, &back, region_sigmas),
+        ),
+        None => (a.clone(), b.clone()),
+    }
 }
 
 /// Overlap error 1 − |A ∩ B| / |A ∪ B| of discs of radii `r1`, `r2` whose centres are `d` apart.

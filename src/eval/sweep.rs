@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use super::homography::{self, from_affine, Homography};
 use super::matching::{judge_pair, PairMatching};
-use super::overlap::{inside_both_views, REGION_SIGMAS};
+use super::overlap::{common_region, REGION_SIGMAS};
 use super::peers::PeerRunner;
 use super::recall::{recall, Descriptors, KeypointSet};
 use super::repeatability::repeatability;
@@ -46,8 +46,8 @@ pub struct EvalOptions {
     /// Points closer than this to an image border are left out of the common region.
     pub margin: f64,
     /// Points whose region (a disc of this many times their scale) reaches past either view's
-    /// border are left out of the common region too ([`inside_both_views`]); 0 judges centres
-    /// only.
+    /// border are left out of the common region too
+    /// ([`super::overlap::inside_both_views`]); 0 judges centres only.
     pub region_sigmas: f64,
     /// Lowe's ratio for the recall's nearest-neighbour matching.
     pub ratio: f64,
@@ -114,26 +114,6 @@ fn judge(
             recall: rc.recall,
             count: (r.count1 + r.count2) as f64 / 2.0,
         });
-    }
-}
-
-/// Both views' points cut to those whose regions lie inside both views
-/// ([`inside_both_views`]; `h` maps view a to view b). A singular `h` leaves them whole: the
-/// correspondences then find no common region and say why.
-pub fn common_region(
-    a: &KeypointSet,
-    sa: (u32, u32),
-    b: &KeypointSet,
-    sb: (u32, u32),
-    h: &Homography,
-    region_sigmas: f64,
-) -> (KeypointSet, KeypointSet) {
-    match homography::invert(h) {
-        Some(back) => (
-            inside_both_views(a, sa, sb, h, region_sigmas),
-            inside_both_views(b, sb, sa, &back, region_sigmas),
-        ),
-        None => (a.clone(), b.clone()),
     }
 }
 
