@@ -3,9 +3,10 @@
 # once (issue 20): correct matches at 3 px and homography accuracy at 3 px on each Oxford
 # sequence and over all four (1000 keypoints), and the rotation sweep's mean and minimum
 # repeatability and recall (15–75° every 15°, ε = 2 px, 500 keypoints, the sample and img1 of
-# each sequence), the inliers of `steernav match` on bark and graf img1 against img4 (its
-# defaults: 1000 keypoints, guided), and the same homography figures over sequences generated
-# from the five images (`steernav eval generate`: blur, JPEG, zoom; 25 pairs each). steernav
+# each sequence; the keypoints whose regions lie inside both views), the inliers of `steernav
+# match` on bark and graf img1 against img4 (its defaults: 1000 keypoints, guided), and the same
+# homography figures over sequences generated from the five images (`steernav eval generate`:
+# blur, JPEG, zoom; 25 pairs each). steernav
 # only, CPU; about 45 s on two cores. The generated sequences are cached in $GENERATED (default
 # /tmp/steernav-generated).
 #
