@@ -283,31 +283,25 @@ mod tests {
             descriptors: Descriptors::Float(descriptors),
             scales: vec![2.0; 60],
         };
-        let r = judge_pair(
-            "t",
-            "p",
-            &a,
-            (300, 200),
-            &b,
-            (300, 200),
-            &h,
-            (0.8, 10.0, 3.0),
-        );
+        let judge = |h: &Homography| {
+            judge_pair(
+                "t",
+                "p",
+                &a,
+                (300, 200),
+                &b,
+                (300, 200),
+                h,
+                (0.8, 10.0, 3.0),
+            )
+        };
+        let r = judge(&h);
         assert_eq!((r.matches, r.correct[0]), (60, 60));
         assert!(r.repeatability_3px == 1.0 && r.repeatability_overlap == Some(1.0));
         assert!(r.corner_error.unwrap() < 1e-6 && r.accurate(1.0));
         // The same points judged against a wrong map: matched, never correct.
         let wrong = [1.0, 0.0, 40.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-        let r = judge_pair(
-            "t",
-            "p",
-            &a,
-            (300, 200),
-            &b,
-            (300, 200),
-            &wrong,
-            (0.8, 10.0, 3.0),
-        );
+        let r = judge(&wrong);
         assert_eq!((r.matches, r.correct[9]), (60, 0));
         assert!(!r.accurate(5.0) && r.mma(10) == 0.0);
     }

@@ -15,7 +15,7 @@
 
 use super::homography::{invert, project, Homography};
 use super::recall::KeypointSet;
-use super::repeatability::{correspondences, Repeatability};
+use super::repeatability::{correspondences, inside, Repeatability};
 
 /// A keypoint's region is a disc of this many times its scale.
 pub const REGION_SIGMAS: f64 = 3.0;
@@ -53,16 +53,13 @@ pub fn inside_both_views(
     if region_sigmas <= 0.0 || set.scales.len() != set.points.len() {
         return set.clone();
     }
-    let room = |(x, y): (f64, f64), (w, hgt): (u32, u32)| {
-        x.min(y).min(w as f64 - 1.0 - x).min(hgt as f64 - 1.0 - y)
-    };
     let keep: Vec<usize> = (0..set.points.len())
         .filter(|&i| {
             let (x, y) = set.points[i];
             let radius = region_sigmas * set.scales[i];
             let mapped = project(h, x, y).zip(local_scale(h, x, y));
-            room((x, y), size) >= radius
-                && mapped.is_some_and(|(q, s)| room(q, other) >= radius * s)
+            inside((x, y), size, radius)
+                && mapped.is_some_and(|(q, s)| inside(q, other, radius * s))
         })
         .collect();
     set.select(&keep)

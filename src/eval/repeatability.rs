@@ -17,7 +17,8 @@ pub struct Repeatability {
 
 use super::homography::{invert, project, Homography};
 
-fn inside(p: (f64, f64), size: (u32, u32), margin: f64) -> bool {
+/// Whether `p` lies at least `margin` inside a view of `size`.
+pub(super) fn inside(p: (f64, f64), size: (u32, u32), margin: f64) -> bool {
     p.0 >= margin
         && p.1 >= margin
         && p.0 <= size.0 as f64 - 1.0 - margin
