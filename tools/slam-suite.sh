@@ -13,6 +13,10 @@
 # - real, when KITTI_CLIPS_DIR is given (a folder of KITTI odometry clips): each clip as is,
 #   from its 16th frame, at 5 Hz (even and odd frames), played backwards, and standing still
 #   on its first frame for 1.5 s before it drives off.
+# SUPERSAMPLE=N renders the generated sequences with N² rays a pixel (a sensor's pixel area;
+# default 1, `slam-synth`'s default, one ray through each pixel's centre, whose aliased texture
+# slides against the scene: docs/SLAM.md, "The generator aliased" and "The suite rendered
+# with four rays a pixel").
 # Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
 # WHEELED=1 runs the vehicles (drive, rover, KITTI clips) with `--wheeled`, the wheeled motion
 # model; the room and the walk, carried by hand, keep the constant-velocity model.
@@ -26,6 +30,7 @@ clips=""
 if [ $# -gt 0 ] && [ "$1" != "--" ]; then clips=$(realpath "$1"); shift; fi
 [ "${1:-}" = "--" ] && shift
 SUITE_DIR=${SUITE_DIR:-/tmp/steernav-suite}
+supersample=${SUPERSAMPLE:-1}
 mkdir -p "$SUITE_DIR"
 if [ -n "${STEERNAV:-}" ]; then
   bin=$STEERNAV
@@ -36,10 +41,13 @@ fi
 
 synth() { # name motion seed fps
   local dir="$SUITE_DIR/$1"
-  [ -f "$dir/rgb.txt" ] && return 0
   local cfg="$SUITE_DIR/$1.toml"
-  printf '[synthetic]\nseed = %s\n' "$3" >"$cfg"
-  [ -n "$4" ] && printf 'fps = %s\n' "$4" >>"$cfg"
+  printf '[synthetic]\nseed = %s\n' "$3" >"$cfg.new"
+  [ -n "$4" ] && printf 'fps = %s\n' "$4" >>"$cfg.new"
+  [ "$supersample" != 1 ] && printf 'supersample = %s\n' "$supersample" >>"$cfg.new"
+  # A cached sequence is reused only when it was made with these settings.
+  if [ -f "$dir/rgb.txt" ] && cmp -s "$cfg.new" "$cfg"; then rm "$cfg.new"; return 0; fi
+  mv "$cfg.new" "$cfg"
   local frames=()
   [ "$2" = drive ] && [ -n "$4" ] && frames=(--frames 30)
   # Generated aside and moved into place: an interrupted run leaves no half sequence behind.
