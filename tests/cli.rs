@@ -612,6 +612,43 @@ fn slam_wheeled_reports_the_arm_and_refuses_odometry_beside_it() {
     );
 }
 
+/// `slam --hand-held` reaches the filter (the trajectory differs from the default's on the
+/// same frames) and refuses to be combined with the wheeled model.
+#[test]
+fn slam_hand_held_changes_the_motion_model_and_refuses_wheeled_beside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let synth = dir.path().join("synth");
+    run_ok(
+        steernav()
+            .args(["slam-synth", "--out", synth.to_str().unwrap()])
+            .args(["--motion", "room", "--frames", "40"]),
+    );
+    let trajectory = |name: &str, flags: &[&str]| {
+        let out = dir.path().join(name);
+        run_ok(
+            steernav()
+                .args(["slam", synth.to_str().unwrap(), "--backend", "cpu"])
+                .args(["--out", out.to_str().unwrap()])
+                .args(flags),
+        );
+        std::fs::read_to_string(out.join("trajectory.txt")).unwrap()
+    };
+    let default = trajectory("default", &[]);
+    let hand_held = trajectory("hand-held", &["--hand-held"]);
+    assert_eq!(default.lines().count(), hand_held.lines().count());
+    assert_ne!(default, hand_held, "--hand-held left the filter unchanged");
+    let out = steernav()
+        .args(["slam", synth.to_str().unwrap(), "--hand-held", "--wheeled"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("--hand-held") && stderr.contains("--wheeled"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();

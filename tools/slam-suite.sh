@@ -19,7 +19,8 @@
 # with four rays a pixel").
 # Generated and derived sequences are cached in $SUITE_DIR (default /tmp/steernav-suite).
 # WHEELED=1 runs the vehicles (drive, rover, KITTI clips) with `--wheeled`, the wheeled motion
-# model; the room and the walk, carried by hand, keep the constant-velocity model.
+# model; the room and the walk, carried by hand, keep the constant-velocity model, which
+# HANDHELD=1 runs with `--hand-held` (its larger linear acceleration).
 # STEERNAV names the binary (default: target/release/steernav, built first), so that a saved
 # build can be judged beside the tree's in one session.
 # With BASELINE=1, a last column gives the ATE of the 40-line OpenCV visual odometry
@@ -74,12 +75,14 @@ derive() { # name src
 
 vehicle=""
 [ "${WHEELED:-0}" = 1 ] && vehicle="--wheeled"
+carried=""
+[ "${HANDHELD:-0}" = 1 ] && carried="--hand-held"
 sequences=()
-for seed in 1 2 3 7 11; do synth "room-$seed" room "$seed" "" && sequences+=("room-$seed|"); done
+for seed in 1 2 3 7 11; do synth "room-$seed" room "$seed" "" && sequences+=("room-$seed|$carried"); done
 for seed in 1 2 3 7 11; do synth "drive-$seed" drive "$seed" "" && sequences+=("drive-$seed|$vehicle"); done
 for seed in 7 3; do synth "drive5hz-$seed" drive "$seed" 5 && sequences+=("drive5hz-$seed|$vehicle"); done
 if [ "${INDOOR:-1}" = 1 ]; then
-  for seed in 1 2 3 7 11; do synth "walk-$seed" walk "$seed" "" && sequences+=("walk-$seed|"); done
+  for seed in 1 2 3 7 11; do synth "walk-$seed" walk "$seed" "" && sequences+=("walk-$seed|$carried"); done
   for seed in 1 2 3 7 11; do
     synth "rover-$seed" rover "$seed" "" && sequences+=("rover-$seed|$vehicle")
   done
@@ -123,7 +126,7 @@ for entry in "${sequences[@]}"; do
   printf '%-22s %6s %8s %8s %7s' "$name" "$lost" "$frames" "$ate" "${drift:--}"
   if [ "$baseline" = 1 ]; then
     # The baseline and slam-eval take the rate, not the motion model.
-    for i in "${!flags[@]}"; do [ "${flags[$i]}" = --wheeled ] && unset 'flags[i]'; done
+    for i in "${!flags[@]}"; do case ${flags[$i]} in --wheeled | --hand-held) unset 'flags[i]' ;; esac; done
     truth=$(find "$SUITE_DIR/$name" -maxdepth 1 \( -name poses.txt -o -name groundtruth.txt \) | head -1)
     vo="$SUITE_DIR/$name.vo.txt"
     if .venv-peers/bin/python tools/vo_baseline.py "$SUITE_DIR/$name" "${flags[@]}" --out "$vo" \

@@ -58,6 +58,13 @@ pub struct SlamCmd {
     /// it (and without odometry) the camera may move any way (constant velocity).
     #[arg(long, conflicts_with_all = ["odometry", "odom_topic"])]
     wheeled: bool,
+    /// The camera is carried by hand (walking, looking around): the constant-velocity model
+    /// with a linear acceleration of 2 map units/s² instead of 1, so that the speed follows a
+    /// walker who speeds up through a turn. Settings whose [slam.motion] is not the default
+    /// constant-velocity model keep theirs. Not for cars: their jolts then reach the map's
+    /// unit (docs/SLAM.md).
+    #[arg(long, conflicts_with_all = ["odometry", "odom_topic", "wheeled"])]
+    hand_held: bool,
     /// Output directory: the estimated trajectory goes to DIR/trajectory.txt, written frame by
     /// frame (see --format). When the start revises frames it reported (those it waited
     /// through before it seated, or a trial of two motions that the unreported one won,
@@ -138,6 +145,9 @@ pub fn run(cmd: SlamCmd) -> anyhow::Result<ExitCode> {
     };
     if cmd.wheeled && !matches!(config.motion, MotionModel::Wheeled(_)) {
         config.motion = MotionModel::wheeled();
+    }
+    if cmd.hand_held && config.motion == MotionModel::default() {
+        config.motion = MotionModel::hand_held();
     }
     // Measured motion replaces a model of it.
     if track.is_some() && !matches!(config.motion, MotionModel::Odometry { .. }) {

@@ -65,6 +65,11 @@ impl Default for MotionModel {
     }
 }
 
+/// The hand-held model's linear acceleration, map units/s² ([`MotionModel::hand_held`]).
+/// Measured on the suite's walks and rooms: walk-3 rendered with four rays a pixel 2.00% →
+/// 0.63% (scale drift 1.332 → 1.069); 4 gives 0.73%.
+pub const HAND_HELD_LINEAR_ACCELERATION: f64 = 2.0;
+
 fn default_linear_acceleration() -> f64 {
     1.0
 }
@@ -136,6 +141,19 @@ impl MotionModel {
     /// The default wheeled-vehicle model.
     pub fn wheeled() -> Self {
         MotionModel::Wheeled(WheeledMotion::default())
+    }
+
+    /// The constant-velocity model for a camera carried by hand (`steernav slam --hand-held`):
+    /// a linear acceleration of [`HAND_HELD_LINEAR_ACCELERATION`] map units/s² instead of 1,
+    /// so that the speed follows a walker who speeds up through a turn, while the landmarks
+    /// in view are renewed, instead of the map's unit shrinking to the lagging speed
+    /// (docs/SLAM.md, "What walk-3's turns lose"). On a car it follows the road's jolts into
+    /// the unit, which is why it is not the default.
+    pub fn hand_held() -> Self {
+        MotionModel::ConstantVelocity {
+            linear_acceleration: HAND_HELD_LINEAR_ACCELERATION,
+            angular_acceleration: default_angular_acceleration(),
+        }
     }
 
     /// The default odometry model.
