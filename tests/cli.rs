@@ -576,17 +576,23 @@ fn bench_nav_suite_times_gist_and_the_field() {
     assert!(rows.iter().any(|r| r["size"] == "B=4096"));
 }
 
+/// A `slam-synth` sequence of `frames` frames of `motion` in `dir`/synth.
+fn generated(dir: &std::path::Path, motion: &str, frames: usize) -> std::path::PathBuf {
+    let synth = dir.join("synth");
+    run_ok(
+        steernav()
+            .args(["slam-synth", "--out", synth.to_str().unwrap()])
+            .args(["--motion", motion, "--frames", &frames.to_string()]),
+    );
+    synth
+}
+
 /// `slam --wheeled` runs the wheeled motion model and says the arm it learnt; it refuses to be
 /// combined with wheel odometry, which measures the motion instead of modelling it.
 #[test]
 fn slam_wheeled_reports_the_arm_and_refuses_odometry_beside_it() {
     let dir = tempfile::tempdir().unwrap();
-    let synth = dir.path().join("synth");
-    run_ok(
-        steernav()
-            .args(["slam-synth", "--out", synth.to_str().unwrap()])
-            .args(["--motion", "drive", "--frames", "20"]),
-    );
+    let synth = generated(dir.path(), "drive", 20);
     let out = run_ok(
         steernav()
             .args(["slam", synth.to_str().unwrap(), "--backend", "cpu"])
@@ -617,12 +623,7 @@ fn slam_wheeled_reports_the_arm_and_refuses_odometry_beside_it() {
 #[test]
 fn slam_hand_held_changes_the_motion_model_and_refuses_wheeled_beside_it() {
     let dir = tempfile::tempdir().unwrap();
-    let synth = dir.path().join("synth");
-    run_ok(
-        steernav()
-            .args(["slam-synth", "--out", synth.to_str().unwrap()])
-            .args(["--motion", "room", "--frames", "40"]),
-    );
+    let synth = generated(dir.path(), "room", 40);
     let trajectory = |name: &str, flags: &[&str]| {
         let out = dir.path().join(name);
         run_ok(
