@@ -260,12 +260,15 @@ fn spread_out(clusters: Vec<Cluster>, plan: &HarrisPlan) -> Vec<Cluster> {
 
 /// Points grouped by detection scale, one [`Grid`] per scale, for the scale-covariant radius
 /// queries of the merge: two detections are neighbours when their scales are adjacent (or
-/// equal) and they lie within a radius proportional to the larger of their scales.
+/// equal) and they lie within a radius proportional to the larger of their scales. The pixel
+/// merge, whose radius is one at every scale and whose queries reach every scale, keeps all the
+/// points in one grid instead (a third of the cells visited with its three scales).
 struct ScaleGrids {
-    /// Per scale: the grid and the global index of each of its points.
+    /// Per scale (or one for all, with the pixel merge): the grid and the global index of each
+    /// of its points.
     grids: Vec<Option<(Grid, Vec<usize>)>>,
-    /// Scales on either side a query reaches.
-    span: usize,
+    /// Scales on either side a query reaches; `None` when one grid holds every scale.
+    span: Option<usize>,
 }
 
 impl ScaleGrids {
@@ -277,6 +280,15 @@ impl ScaleGrids {
         cell: impl Fn(usize) -> f32,
     ) -> Self {
         let count = plan.scales.len();
+        if plan.config.merge == MergeMode::Pixel {
+            let widest = (0..count).map(&cell).fold(0.0f32, f32::max);
+            let grid = (!points.is_empty())
+                .then(|| (Grid::new(points, widest), (0..points.len()).collect()));
+            return Self {
+                grids: vec![grid],
+                span: None,
+            };
+        }
         let mut members: Vec<Vec<usize>> = vec![Vec::new(); count];
         for (i, &s) in scales.iter().enumerate() {
             members[s].push(i);
@@ -292,18 +304,21 @@ impl ScaleGrids {
                 Some((Grid::new(&pts, cell(s)), members))
             })
             .collect();
-        let span = match plan.config.merge {
-            MergeMode::Pixel => count,
-            _ => 1,
-        };
-        Self { grids, span }
+        Self {
+            grids,
+            span: Some(1),
+        }
     }
 
-    /// Global indices of the points of scales s − span … s + span in the cells around `p`.
+    /// Global indices of the points of scales s − span … s + span (of every scale, with one
+    /// grid) in the cells around `p`.
     fn near(&self, p: (f32, f32), s: usize) -> impl Iterator<Item = usize> + '_ {
         let last = self.grids.len() - 1;
-        let span = self.span;
-        (s.saturating_sub(span)..=(s.saturating_add(span)).min(last)).flat_map(move |t| {
+        let scales = match self.span {
+            Some(span) => s.saturating_sub(span)..=(s.saturating_add(span)).min(last),
+            None => 0..=0,
+        };
+        scales.flat_map(move |t| {
             self.grids[t]
                 .iter()
                 .flat_map(move |(g, members)| g.near(p).map(move |k| members[k]))
@@ -668,6 +683,27 @@ mod tests {
         let mut c = vec![cand(50.0, 50.0, 2.0, 0, 0), cand(50.5, 50.0, 1.0, 1, 0)];
         crate::features::sort_candidates(&mut c);
         assert_eq!(merge(&c, &plan).len(), 1);
+    }
+
+    #[test]
+    fn the_pixel_merge_joins_every_scale_within_its_radius_and_no_farther() {
+        let plan = HarrisPlan::new(&DetectorConfig {
+            merge: MergeMode::Pixel,
+            ..DetectorConfig::default()
+        });
+        let r = plan.config.merge_radius;
+        let last = plan.scales.len() - 1;
+        // The finest and the coarsest scale at one place are one keypoint; a detection at
+        // 3r from them, at any scale, is another.
+        let mut c = vec![
+            cand(50.0, 50.0, 3.0, 0, 0),
+            cand(50.5, 50.0, 2.0, last, 2),
+            cand(50.0 + 3.0 * r, 50.0, 1.0, last, 4),
+        ];
+        crate::features::sort_candidates(&mut c);
+        let m = merge(&c, &plan);
+        assert_eq!(m.len(), 2);
+        assert_eq!((m[0].members, m[1].members), (2, 1));
     }
 
     #[test]
