@@ -177,18 +177,24 @@ impl Grid {
         let (cx, cy) = self.coords(p);
         cy * self.cols + cx
     }
-    /// Indices stored in the 3×3 cells around `p` (covers every point within `cell`).
-    fn near(&self, p: (f32, f32)) -> impl Iterator<Item = usize> + '_ {
+    /// Calls `f` with the indices stored in the 3×3 cells around `p` (every point within
+    /// `cell` of it among them) until it returns true; whether one did. Plain loops: the
+    /// merge's queries are its inner loop.
+    #[inline]
+    fn any_near(&self, p: (f32, f32), mut f: impl FnMut(usize) -> bool) -> bool {
         let (cx, cy) = self.coords(p);
         let (x0, x1) = (cx.saturating_sub(1), (cx + 1).min(self.cols - 1));
-        (cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1)).flat_map(move |y| {
+        for y in cy.saturating_sub(1)..=(cy + 1).min(self.rows - 1) {
             // Cells x0..=x1 of one grid row are contiguous in `items`.
             let (a, b) = (
                 self.start[y * self.cols + x0] as usize,
                 self.start[y * self.cols + x1 + 1] as usize,
             );
-            self.items[a..b].iter().map(|&i| i as usize)
-        })
+            if self.items[a..b].iter().any(|&i| f(i as usize)) {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -310,19 +316,27 @@ impl ScaleGrids {
         }
     }
 
-    /// Global indices of the points of scales s − span … s + span (of every scale, with one
-    /// grid) in the cells around `p`.
-    fn near(&self, p: (f32, f32), s: usize) -> impl Iterator<Item = usize> + '_ {
+    /// Calls `f` with the global indices of the points of scales s − span … s + span (of every
+    /// scale, with one grid) in the cells around `p` until it returns true; whether one did.
+    fn any_near(&self, p: (f32, f32), s: usize, mut f: impl FnMut(usize) -> bool) -> bool {
         let last = self.grids.len() - 1;
         let scales = match self.span {
             Some(span) => s.saturating_sub(span)..=(s.saturating_add(span)).min(last),
             None => 0..=0,
         };
-        scales.flat_map(move |t| {
+        scales.into_iter().any(|t| {
             self.grids[t]
-                .iter()
-                .flat_map(move |(g, members)| g.near(p).map(move |k| members[k]))
+                .as_ref()
+                .is_some_and(|(g, members)| g.any_near(p, |k| f(members[k])))
         })
+    }
+
+    /// Calls `f` with every global index [`Self::any_near`] would visit.
+    fn for_each_near(&self, p: (f32, f32), s: usize, mut f: impl FnMut(usize)) {
+        self.any_near(p, s, |j| {
+            f(j);
+            false
+        });
     }
 }
 
@@ -354,9 +368,9 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     let mut seeds: Vec<usize> = Vec::new();
     for (i, &p) in points.iter().enumerate() {
         let s = scale_of[i];
-        if grids.near(p, s).all(|j| {
+        if !grids.any_near(p, s, |j| {
             let rr = pair_radius(s, scale_of[j]);
-            !is_seed[j] || dist2(points[j], p) > rr * rr
+            is_seed[j] && dist2(points[j], p) <= rr * rr
         }) {
             is_seed[i] = true;
             seeds.push(i);
@@ -376,7 +390,7 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         });
         (0..points.len())
             .filter(|&i| {
-                seed_grids.near(points[i], scale_of[i]).any(|k| {
+                seed_grids.any_near(points[i], scale_of[i], |k| {
                     let rr = 2.0 * reach * pair_radius(scale_of[i], seed_scales[k]);
                     dist2(seed_points[k], points[i]) <= rr * rr
                 })
@@ -404,14 +418,19 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
             .par_iter()
             .zip(&scale_of)
             .map(|(&p, &s)| {
-                grid.near(p, s)
-                    .filter_map(|i| {
-                        let rr = reach * pair_radius(s, centre_scales[i]);
-                        let d = dist2(centres[i], p);
-                        (d <= rr * rr).then_some((d / (rr * rr), i))
-                    })
-                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
-                    .map(|(_, i)| i)
+                // The centre nearest in units of the pair's radius, ties to the lower index.
+                let mut best: Option<(f32, usize)> = None;
+                grid.for_each_near(p, s, |i| {
+                    let rr = reach * pair_radius(s, centre_scales[i]);
+                    let d = dist2(centres[i], p);
+                    if d <= rr * rr {
+                        let q = (d / (rr * rr), i);
+                        if best.is_none_or(|b| q.0.total_cmp(&b.0).then(q.1.cmp(&b.1)).is_lt()) {
+                            best = Some(q);
+                        }
+                    }
+                });
+                best.map(|(_, i)| i)
             })
             .collect();
         if iteration == 2 {
@@ -551,13 +570,13 @@ fn merge_close(mut stats: Vec<Stats>, plan: &HarrisPlan, limit: usize) -> Vec<Cl
             continue;
         }
         let mut total = stats[i].clone();
-        let mut near: Vec<usize> = grid
-            .near(centres[i], scales[i])
-            .filter(|&j| {
-                let rr = r * factor[scales[i]].max(factor[scales[j]]);
-                j > i && !absorbed[j] && dist2(centres[i], centres[j]) <= rr * rr
-            })
-            .collect();
+        let mut near: Vec<usize> = Vec::new();
+        grid.for_each_near(centres[i], scales[i], |j| {
+            let rr = r * factor[scales[i]].max(factor[scales[j]]);
+            if j > i && !absorbed[j] && dist2(centres[i], centres[j]) <= rr * rr {
+                near.push(j);
+            }
+        });
         near.sort_unstable();
         for j in near {
             absorbed[j] = true;
@@ -601,10 +620,13 @@ mod tests {
             .collect();
         let grid = Grid::new(&pts, 3.0);
         for q in pts.iter().step_by(7) {
-            let mut found: Vec<usize> = grid
-                .near(*q)
-                .filter(|&i| dist2(pts[i], *q) <= 9.0)
-                .collect();
+            let mut found: Vec<usize> = Vec::new();
+            grid.any_near(*q, |i| {
+                if dist2(pts[i], *q) <= 9.0 {
+                    found.push(i);
+                }
+                false
+            });
             found.sort_unstable();
             let expected: Vec<usize> = (0..pts.len())
                 .filter(|&i| dist2(pts[i], *q) <= 9.0)
