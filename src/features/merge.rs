@@ -364,6 +364,12 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
     // Radius suppression, strongest first: a candidate becomes a seed unless a seed of an
     // adjacent scale lies within the pair's radius.
     let grids = ScaleGrids::new(&points, &scale_of, plan, |s| r * factor[s] * spread);
+    // Only the strongest clusters are kept (stage 2 stops at max_keypoints, and a cluster is
+    // led by its seed), so seeds far down the list and the candidates out of reach of the
+    // strongest seeds cannot reach the output: drop them before the Lloyd iterations. The
+    // suppression itself stops one seed past the limit: the later seeds would be dropped, and
+    // which candidates are kept depends on the first `limit` alone.
+    let limit = 4 * plan.config.max_keypoints;
     let mut is_seed = vec![false; points.len()];
     let mut seeds: Vec<usize> = Vec::new();
     for (i, &p) in points.iter().enumerate() {
@@ -374,13 +380,12 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
         }) {
             is_seed[i] = true;
             seeds.push(i);
+            if seeds.len() > limit {
+                break;
+            }
         }
     }
     let reach = 1.5;
-    // Only the strongest clusters are kept (stage 2 stops at max_keypoints, and a cluster is
-    // led by its seed), so seeds far down the list and the candidates out of reach of the
-    // strongest seeds cannot reach the output: drop them before the Lloyd iterations.
-    let limit = 4 * plan.config.max_keypoints;
     let kept: Vec<usize> = if seeds.len() > limit {
         seeds.truncate(limit);
         let seed_points: Vec<(f32, f32)> = seeds.iter().map(|&i| points[i]).collect();
@@ -389,6 +394,7 @@ fn covariant_stage1(candidates: &[Candidate], plan: &HarrisPlan) -> Vec<Stats> {
             2.0 * reach * r * factor[s] * spread
         });
         (0..points.len())
+            .into_par_iter()
             .filter(|&i| {
                 seed_grids.any_near(points[i], scale_of[i], |k| {
                     let rr = 2.0 * reach * pair_radius(scale_of[i], seed_scales[k]);
