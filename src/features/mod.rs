@@ -9,6 +9,7 @@ pub(crate) mod filter_bank;
 pub(crate) mod harris;
 pub mod matching;
 pub(crate) mod merge;
+pub(crate) mod neighbours;
 pub(crate) mod pyramid;
 pub(crate) mod steerable;
 pub(crate) mod steered;
