@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-use common::{assert_ok, run_ok, sample, steernav};
+use common::{assert_ok, refused, run_ok, sample, steernav};
 
 #[test]
 fn detect_prints_the_design_json_for_one_image() {
@@ -86,15 +86,14 @@ fn detect_reports_bad_files_and_keeps_going() {
     let bad = dir.path().join("broken.png");
     std::fs::write(&bad, b"\x89PNG\r\n\x1a\nbroken").unwrap();
     let out_dir = dir.path().join("out");
-    let out = steernav()
-        .args(["detect", "--backend", "cpu", "--out"])
-        .arg(&out_dir)
-        .arg(&bad)
-        .arg(sample())
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("broken.png"));
+    refused(
+        steernav()
+            .args(["detect", "--backend", "cpu", "--out"])
+            .arg(&out_dir)
+            .arg(&bad)
+            .arg(sample()),
+        &["broken.png"],
+    );
     assert!(
         out_dir.join("sample.json").exists(),
         "the good image's result is kept"
@@ -178,17 +177,12 @@ fn malformed_config_file_is_named() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = dir.path().join("bad.toml");
     std::fs::write(&cfg, "[detector]\nbasis_sigma = nan\n").unwrap();
-    let out = steernav()
-        .args(["detect", "--backend", "cpu", "--config"])
-        .arg(&cfg)
-        .arg(sample())
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("bad.toml") && err.contains("basis_sigma"),
-        "{err}"
+    refused(
+        steernav()
+            .args(["detect", "--backend", "cpu", "--config"])
+            .arg(&cfg)
+            .arg(sample()),
+        &["bad.toml", "basis_sigma"],
     );
 }
 
@@ -253,13 +247,12 @@ fn eval_rotation_writes_the_csv_and_the_figure() {
     assert!(text.starts_with("detector,image,angle,eps,repeatability,recall,count\n"));
     assert_eq!(text.lines().count(), 1 + 2 * 3);
     assert!(image::open(&png).is_ok());
-    let bad = steernav()
-        .args(["eval", "rotation", "--detectors", "nope", "--images"])
-        .arg(&img)
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown detector 'nope'"));
+    refused(
+        steernav()
+            .args(["eval", "rotation", "--detectors", "nope", "--images"])
+            .arg(&img),
+        &["unknown detector 'nope'"],
+    );
 }
 
 #[test]
@@ -306,11 +299,10 @@ fn bench_prints_json_rows_with_the_documented_keys() {
         );
         assert!(p10 <= med && med <= p90);
     }
-    let bad = steernav()
-        .args(["bench", "--sizes", "0x10", "--backend", "cpu"])
-        .output()
-        .unwrap();
-    assert!(!bad.status.success());
+    refused(
+        steernav().args(["bench", "--sizes", "0x10", "--backend", "cpu"]),
+        &["0x10"],
+    );
 }
 
 #[test]
@@ -379,19 +371,14 @@ fn slam_synth_slam_and_slam_eval_work_end_to_end() {
         "[camera]\nfx = 0\nfy = 100\ncx = 1\ncy = 1\nwidth = 320\nheight = 240\n",
     )
     .unwrap();
-    let out = steernav()
-        .args([
+    refused(
+        steernav().args([
             "slam",
             seq.to_str().unwrap(),
             "--calib",
             bad.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("bad.toml") && err.contains("camera.fx"),
-        "{err}"
+        ]),
+        &["bad.toml", "camera.fx"],
     );
     let out = steernav().args(["slam", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&out.stdout);
@@ -497,14 +484,9 @@ fn nav_and_nav_eval_run_from_the_command_line() {
         "size = [8.0, 8.0]\nstart = [-1.0, 1.0, 0.0]\ngoal = [7.0, 7.0]\n",
     )
     .unwrap();
-    let out = steernav()
-        .args(["nav", "--world", bad.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("bad.toml") && err.contains("world.start"),
-        "{err}"
+    refused(
+        steernav().args(["nav", "--world", bad.to_str().unwrap()]),
+        &["bad.toml", "world.start"],
     );
 }
 
@@ -534,22 +516,13 @@ fn bench_slam_suite_times_the_drive_and_the_walk() {
     let dir = tempfile::tempdir().unwrap();
     let settings = dir.path().join("s.toml");
     std::fs::write(&settings, "[slam.map]\nmax_landmarks = 4\n").unwrap();
-    let out = steernav()
-        .args([
-            "bench",
-            "--suite",
-            "slam",
-            "--backend",
-            "cpu",
-            "--frames",
-            "10",
-        ])
-        .arg("--config")
-        .arg(&settings)
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("slam.map.max_landmarks"));
+    refused(
+        steernav()
+            .args(["bench", "--suite", "slam", "--backend", "cpu"])
+            .args(["--frames", "10", "--config"])
+            .arg(&settings),
+        &["slam.map.max_landmarks"],
+    );
 }
 
 #[test]
@@ -605,16 +578,11 @@ fn slam_wheeled_reports_the_arm_and_refuses_odometry_beside_it() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("wheeled model: camera"), "{stdout}");
     assert!(stdout.contains("the arm at the fitted scale"), "{stdout}");
-    let out = steernav()
-        .args(["slam", synth.to_str().unwrap(), "--wheeled", "--odometry"])
-        .arg(synth.join("groundtruth.txt"))
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("--wheeled") && stderr.contains("--odometry"),
-        "{stderr}"
+    refused(
+        steernav()
+            .args(["slam", synth.to_str().unwrap(), "--wheeled", "--odometry"])
+            .arg(synth.join("groundtruth.txt")),
+        &["--wheeled", "--odometry"],
     );
 }
 
@@ -638,15 +606,9 @@ fn slam_hand_held_changes_the_motion_model_and_refuses_wheeled_beside_it() {
     let hand_held = trajectory("hand-held", &["--hand-held"]);
     assert_eq!(default.lines().count(), hand_held.lines().count());
     assert_ne!(default, hand_held, "--hand-held left the filter unchanged");
-    let out = steernav()
-        .args(["slam", synth.to_str().unwrap(), "--hand-held", "--wheeled"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        stderr.contains("--hand-held") && stderr.contains("--wheeled"),
-        "{stderr}"
+    refused(
+        steernav().args(["slam", synth.to_str().unwrap(), "--hand-held", "--wheeled"]),
+        &["--hand-held", "--wheeled"],
     );
 }
 
@@ -695,16 +657,14 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     std::fs::write(kitti.join("poses.txt"), rows.join("\n") + "\n").unwrap();
     let traj = dir.path().join("trajectory.txt");
     let run = |extra: &[&str]| {
-        steernav()
-            .args(["slam", kitti.to_str().unwrap(), "--backend", "cpu", "--out"])
+        let mut slam = steernav();
+        slam.args(["slam", kitti.to_str().unwrap(), "--backend", "cpu", "--out"])
             .arg(dir.path())
-            .args(extra)
-            .output()
-            .unwrap()
+            .args(extra);
+        slam
     };
-    let out = run(&["--format", "kitti"]);
+    let out = run_ok(&mut run(&["--format", "kitti"]));
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert_ok(&out);
     assert!(
         stdout.contains("kitti layout") && stdout.contains("ATE"),
         "{stdout}"
@@ -723,41 +683,24 @@ fn slam_reads_a_kitti_folder_and_refuses_a_broken_one_naming_the_file() {
     // A --times file must give one timestamp per pose row, and is named when it does not.
     let times = dir.path().join("short_times.txt");
     std::fs::write(&times, "0.0\n0.1\n0.2\n").unwrap();
-    let out = steernav()
-        .arg("slam-eval")
-        .arg(&traj)
-        .arg(kitti.join("poses.txt"))
-        .arg("--times")
-        .arg(&times)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
-    assert!(
-        stderr.contains("short_times.txt") && stderr.contains("3 timestamps for the 20 pose rows"),
-        "{stderr}"
+    refused(
+        steernav()
+            .arg("slam-eval")
+            .arg(&traj)
+            .arg(kitti.join("poses.txt"))
+            .arg("--times")
+            .arg(&times),
+        &["short_times.txt", "3 timestamps for the 20 pose rows"],
     );
     // A short poses.txt is refused before the run, naming the file.
     std::fs::write(kitti.join("poses.txt"), rows[..5].join("\n") + "\n").unwrap();
-    let out = run(&[]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
-    assert!(
-        stderr.contains("poses.txt") && stderr.contains("5 pose rows for 20 frames"),
-        "{stderr}"
-    );
+    refused(&mut run(&[]), &["poses.txt", "5 pose rows for 20 frames"]);
     // A bad times.txt names its line; a missing calib.txt names the file.
     std::fs::write(kitti.join("times.txt"), "0.0\n0.1\nten\n").unwrap();
-    let stderr = String::from_utf8_lossy(&run(&[]).stderr).to_string();
-    assert!(
-        stderr.contains("times.txt") && stderr.contains("line 3"),
-        "{stderr}"
-    );
+    refused(&mut run(&[]), &["times.txt", "line 3"]);
     std::fs::remove_file(kitti.join("times.txt")).unwrap();
     std::fs::remove_file(kitti.join("calib.txt")).unwrap();
-    let out = run(&[]);
-    assert!(!out.status.success());
-    assert!(String::from_utf8_lossy(&out.stderr).contains("calib.txt"));
+    refused(&mut run(&[]), &["calib.txt"]);
 }
 
 #[test]
@@ -1057,16 +1000,12 @@ fn a_truncated_jpeg_is_named_and_counted_as_damaged() {
 
 #[test]
 fn keypoints_without_descriptors_are_refused_for_matching() {
-    let out = steernav()
-        .args(["match", "--backend", "cpu", "--descriptor", "none"])
-        .arg(sample())
-        .arg(sample())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("--descriptor none"),
-        "{err}"
+    refused(
+        steernav()
+            .args(["match", "--backend", "cpu", "--descriptor", "none"])
+            .arg(sample())
+            .arg(sample()),
+        &["--descriptor none"],
     );
     let out = run_ok(
         steernav()
@@ -1198,39 +1137,27 @@ fn fifos_and_devices_as_inputs_are_refused_by_name_not_read_forever() {
 fn batch_into_its_own_input_and_absurd_frame_rates_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::copy(sample(), dir.path().join("a.png")).unwrap();
-    let out = steernav()
-        .args(["batch", "--backend", "cpu", "--out"])
-        .arg(dir.path())
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("both the input and the output"),
-        "{err}"
+    refused(
+        steernav()
+            .args(["batch", "--backend", "cpu", "--out"])
+            .arg(dir.path())
+            .arg(dir.path()),
+        &["both the input and the output"],
     );
-    let out = steernav()
-        .args(["slam", "--backend", "cpu", "--fps", "1e-320"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("fps = 1e-320: must be a rate"),
-        "{err}"
+    refused(
+        steernav()
+            .args(["slam", "--backend", "cpu", "--fps", "1e-320"])
+            .arg(dir.path()),
+        &["fps = 1e-320: must be a rate"],
     );
     // A bag's frames carry their own stamps: a rate given for one is refused, not ignored.
     let bag = dir.path().join("drive.mcap");
     std::fs::write(&bag, b"").unwrap();
-    let out = steernav()
-        .args(["slam", "--backend", "cpu", "--fps", "5"])
-        .arg(&bag)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        !out.status.success() && err.contains("does not apply to a ROS 2 bag"),
-        "{err}"
+    refused(
+        steernav()
+            .args(["slam", "--backend", "cpu", "--fps", "5"])
+            .arg(&bag),
+        &["does not apply to a ROS 2 bag"],
     );
 }
 
@@ -1442,23 +1369,17 @@ fn batch_shards_split_a_tree_alone_and_at_once() {
     // A whole-tree batch in the folder keeps the shards out, and a shard keeps it out.
     let lock = std::fs::File::create(alone.join(".steernav-batch.lock")).unwrap();
     lock.lock().unwrap();
-    let refused = shard(1, &alone).output().unwrap();
-    assert!(!refused.status.success());
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("whole tree"));
+    refused(&mut shard(1, &alone), &["whole tree"]);
     drop(lock);
     for bad in ["2/2", "x/2", "1"] {
-        let out = steernav()
-            .args(["batch"])
-            .arg(&input)
-            .arg("--out")
-            .arg(&alone)
-            .args(["--shard", bad])
-            .output()
-            .unwrap();
-        assert!(!out.status.success());
-        assert!(
-            String::from_utf8_lossy(&out.stderr).contains("K/N"),
-            "{bad}"
+        refused(
+            steernav()
+                .args(["batch"])
+                .arg(&input)
+                .arg("--out")
+                .arg(&alone)
+                .args(["--shard", bad]),
+            &["K/N"],
         );
     }
 }

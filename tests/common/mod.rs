@@ -25,6 +25,18 @@ pub fn run_ok(command: &mut Command) -> Output {
     out
 }
 
+/// Runs `command`, fails the test unless it was refused with a message that names every one
+/// of `names` (the input and the reason a user reads), and returns that message.
+pub fn refused(command: &mut Command, names: &[&str]) -> String {
+    let out = command.output().expect("the command starts");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "accepted: {stderr}");
+    for name in names {
+        assert!(stderr.contains(name), "{name:?} not named: {stderr}");
+    }
+    stderr
+}
+
 /// Fails the test, with the command's stderr, unless it succeeded.
 pub fn assert_ok(out: &Output) {
     assert!(

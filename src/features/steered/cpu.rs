@@ -5,8 +5,8 @@
 use std::f32::consts::TAU;
 
 use super::{
-    fast_atan2, floor, nearest_pixel, patch_geometry, wrap_angle, Steered, CELLS, CELL_SIGMAS,
-    CLIP, DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
+    fast_atan2, floor, nearest_pixel, patch_geometry, Steered, CELLS, CELL_SIGMAS, CLIP,
+    DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
 };
 use crate::features::harris::plan::IMAGE_BLUR;
 use crate::features::steerable::Kernel1d;
@@ -22,9 +22,32 @@ struct Patch {
     direction: Vec<f32>,
 }
 
+/// A worker's buffers, kept from keypoint to keypoint: a frame's 500 descriptors would
+/// otherwise allocate and free nine vectors each.
+#[derive(Default)]
+struct Scratch {
+    rows: Vec<f32>,
+    source: Vec<f32>,
+    smooth: Vec<f32>,
+    magnitude: Vec<f32>,
+    direction: Vec<f32>,
+    votes: Votes,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// `v` holding `len` zeros, reusing its allocation.
+#[inline(always)]
+fn zeroed<T: Copy + Default>(v: &mut Vec<T>, len: usize) {
+    v.clear();
+    v.resize(len, T::default());
+}
+
 impl Patch {
     /// The `side`×`side` window whose centre pixel is nearest (x, y), smoothed with `kernel`
-    /// (borders clamped), and its central-difference gradient.
+    /// (borders clamped), and its central-difference gradient, in `scratch`'s buffers.
     #[inline(always)]
     fn around(
         gray: &[f32],
@@ -33,6 +56,7 @@ impl Patch {
         (x, y): (f32, f32),
         half: usize,
         kernel: &Kernel1d,
+        scratch: &mut Scratch,
     ) -> Self {
         let r = kernel.radius();
         let side = 2 * half + 1;
@@ -42,13 +66,22 @@ impl Patch {
         // Rows first: `outer` rows of `side + 2` smoothed columns, each from the row's pixels
         // [ox, ox + inner + 2r) gathered once with the border clamped.
         let inner = side + 2;
-        let mut rows = vec![0.0f32; outer * inner];
-        let mut source = vec![0.0f32; inner + 2 * r];
+        let rows = &mut scratch.rows;
+        zeroed(rows, outer * inner);
+        let source = &mut scratch.source;
+        zeroed(source, inner + 2 * r);
+        // Away from the left and right borders a row is one slice; clamping is for the rest.
+        let span = source.len();
+        let interior = ox >= 0 && ox as usize + span <= width;
         for j in 0..outer {
             let v = (oy + j as i64).clamp(0, height as i64 - 1) as usize;
             let line = &gray[v * width..(v + 1) * width];
-            for (k, p) in source.iter_mut().enumerate() {
-                *p = line[(ox + k as i64).clamp(0, width as i64 - 1) as usize];
+            if interior {
+                source.copy_from_slice(&line[ox as usize..ox as usize + span]);
+            } else {
+                for (k, p) in source.iter_mut().enumerate() {
+                    *p = line[(ox + k as i64).clamp(0, width as i64 - 1) as usize];
+                }
             }
             // Tap by tap across the row: each output still sums its taps in order, and the
             // loop runs across outputs, which vectorises (a sum per output is a serial chain).
@@ -59,7 +92,8 @@ impl Patch {
                 }
             }
         }
-        let mut smooth = vec![0.0f32; inner * inner];
+        let smooth = &mut scratch.smooth;
+        zeroed(smooth, inner * inner);
         for j in 0..inner {
             let out = &mut smooth[j * inner..(j + 1) * inner];
             for (t, &w) in kernel.taps.iter().enumerate() {
@@ -68,8 +102,10 @@ impl Patch {
                 }
             }
         }
-        let mut magnitude = vec![0.0; side * side];
-        let mut direction = vec![0.0; side * side];
+        let mut magnitude = std::mem::take(&mut scratch.magnitude);
+        let mut direction = std::mem::take(&mut scratch.direction);
+        zeroed(&mut magnitude, side * side);
+        zeroed(&mut direction, side * side);
         // Row by row over slices, without closures or branches, so that the loops vectorise.
         for j in 0..side {
             let (up, mid, down) = (
@@ -137,12 +173,17 @@ pub fn describe_steered_blurred(
     point: (f32, f32, f32),
     prior_blur: f32,
 ) -> Steered {
-    #[cfg(target_arch = "x86_64")]
-    if crate::simd::has_avx2_fma() {
-        // SAFETY: the CPU supports AVX2 (checked above).
-        return unsafe { describe_avx2(gray, width, height, point, prior_blur) };
-    }
-    describe(gray, width, height, point, prior_blur)
+    // The buffers are taken here, outside the AVX2 build: a closure inside it would be
+    // compiled without its target features.
+    SCRATCH.with(|cell| {
+        let scratch = &mut *cell.borrow_mut();
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::has_avx2_fma() {
+            // SAFETY: the CPU supports AVX2 (checked above).
+            return unsafe { describe_avx2(gray, width, height, point, prior_blur, scratch) };
+        }
+        describe::<Truncated>(gray, width, height, point, prior_blur, scratch)
+    })
 }
 
 /// [`describe`] compiled for AVX2: the smoothing, gradient and weighting loops run 8 lanes
@@ -156,68 +197,144 @@ unsafe fn describe_avx2(
     height: usize,
     point: (f32, f32, f32),
     prior_blur: f32,
+    scratch: &mut Scratch,
 ) -> Steered {
-    describe(gray, width, height, point, prior_blur)
+    describe::<Rounded>(gray, width, height, point, prior_blur, scratch)
+}
+
+/// How a build rounds down. Both give the same value wherever the descriptor rounds (|t| <
+/// 2³¹), so every descriptor is the same bit for bit either way: [`Truncated`] is the
+/// baseline x86-64 build's (where `f32::floor` calls the C library), [`Rounded`] the AVX2
+/// build's, where `f32::floor` is one instruction (`roundps`) and the loops around it
+/// vectorise; the truncation's saturating conversion keeps them scalar.
+trait Floor {
+    fn floor(t: f32) -> f32;
+
+    /// `a` wrapped into [0, 2π), written out as the GPU twin computes it.
+    #[inline(always)]
+    fn wrap(a: f32) -> f32 {
+        a - TAU * Self::floor(a / TAU)
+    }
+}
+
+/// [`super::floor`]: a truncation and a correction.
+struct Truncated;
+
+impl Floor for Truncated {
+    #[inline(always)]
+    fn floor(t: f32) -> f32 {
+        floor(t)
+    }
+}
+
+/// `f32::floor`.
+#[cfg(target_arch = "x86_64")]
+struct Rounded;
+
+#[cfg(target_arch = "x86_64")]
+impl Floor for Rounded {
+    #[inline(always)]
+    fn floor(t: f32) -> f32 {
+        t.floor()
+    }
 }
 
 #[inline(always)]
-fn describe(
+fn describe<F: Floor>(
     gray: &[f32],
     width: usize,
     height: usize,
     (x, y, sigma): (f32, f32, f32),
     prior_blur: f32,
+    scratch: &mut Scratch,
 ) -> Steered {
     let cell = CELL_SIGMAS * sigma;
     let window = CELLS as f32 * cell;
     let (half, kernel) = patch_geometry(sigma, prior_blur);
-    let patch = Patch::around(gray, width, height, (x, y), half, &kernel);
+    let patch = Patch::around(gray, width, height, (x, y), half, &kernel, scratch);
+    let described = describe_patch::<F>(&patch, (x, y, sigma), (cell, window), &mut scratch.votes);
+    scratch.magnitude = patch.magnitude;
+    scratch.direction = patch.direction;
+    described
+}
+
+/// The orientation and descriptor of the keypoint at (x, y) of scale `sigma` from its
+/// smoothed patch, with cells of side `cell` in a window of side `window` (pixels).
+#[inline(always)]
+fn describe_patch<F: Floor>(
+    patch: &Patch,
+    (x, y, sigma): (f32, f32, f32),
+    (cell, window): (f32, f32),
+    votes: &mut Votes,
+) -> Steered {
     let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
-    let orientation = dominant_orientation(&patch, (&dxs, &dys), ORIENTATION_SIGMAS * sigma);
+    let orientation = dominant_orientation::<F>(patch, (&dxs, &dys), ORIENTATION_SIGMAS * sigma);
     let (sin, cos) = orientation.sin_cos();
     // Votes go to a histogram with a ring of spare cells around the 4×4, so that the
     // trilinear vote needs no bounds checks; the spare cells are dropped afterwards. Each
     // kept bin receives the same additions in the same order as a checked vote would.
-    let mut padded = [0.0f32; PADDED_LEN];
+    let mut padded: Padded = [[0.0; DIRECTIONS]; PADDED_CELLS * PADDED_CELLS];
     let weight_sigma = 0.5 * window;
     let to_bin = DIRECTIONS as f32 / TAU;
     let (gx, gy) = (
         gaussian_factors(&dxs, weight_sigma),
         gaussian_factors(&dys, weight_sigma),
     );
-    // Row by row: first every pixel's place in the frame, weight and direction bin in loops
-    // without branches (they vectorise), then the votes of the pixels inside the window.
+    // Row by row: first every pixel's place in the frame, weight and direction bin in a loop
+    // without branches over plain arrays (it vectorises), then the votes of the pixels inside
+    // the window.
     let side = patch.side;
-    let mut votes = vec![Vote::default(); side];
+    votes.resize(side);
     for (j, &dy) in dys.iter().enumerate() {
         let magnitude = &patch.magnitude[j * side..(j + 1) * side];
         let direction = &patch.direction[j * side..(j + 1) * side];
-        for ((((vote, &dx), &m), &d), &wx) in votes
-            .iter_mut()
-            .zip(&dxs)
-            .zip(magnitude)
-            .zip(direction)
-            .zip(&gx)
-        {
+        let Votes {
+            cell: cells,
+            bin: bins,
+            fraction: [fus, fvs, fps],
+            weight: weights,
+            inside: insides,
+        } = votes;
+        let (dxs, gx) = (&dxs[..side], &gx[..side]);
+        let (cells, bins, weights, insides) = (
+            &mut cells[..side],
+            &mut bins[..side],
+            &mut weights[..side],
+            &mut insides[..side],
+        );
+        let (fus, fvs, fps) = (&mut fus[..side], &mut fvs[..side], &mut fps[..side]);
+        for i in 0..side {
+            let (dx, m, d) = (dxs[i], magnitude[i], direction[i]);
             // The pixel in the keypoint's frame, in cells, with cell centres at integers.
             let u = (cos * dx + sin * dy) / cell + 0.5 * CELLS as f32 - 0.5;
             let v = (-sin * dx + cos * dy) / cell + 0.5 * CELLS as f32 - 0.5;
-            vote.inside =
+            insides[i] =
                 !(u <= -1.0 || v <= -1.0 || u >= CELLS as f32 || v >= CELLS as f32) & (m != 0.0);
-            vote.weight = m * (wx * gy[j]);
-            // Direction of steepest steered response relative to the frame.
-            vote.at = (u, v, wrap_angle(d - orientation) * to_bin);
+            weights[i] = m * (gx[i] * gy[j]);
+            // Direction of steepest steered response relative to the frame, in bins.
+            let phi = F::wrap(d - orientation) * to_bin;
+            // The lower corner of the 2×2×2 bins and the offsets from it; for a pixel inside
+            // the window every corner value is a small integer.
+            // φ ≥ 0, so its floor is its truncation.
+            let (u0, v0, p0) = (F::floor(u), F::floor(v), F::floor(phi));
+            fus[i] = u - u0;
+            fvs[i] = v - v0;
+            fps[i] = phi - p0;
+            cells[i] = ((v0 + 1.0) * PADDED_CELLS as f32 + (u0 + 1.0)) as i32;
+            bins[i] = p0 as i32;
         }
-        for vote in votes.iter().filter(|v| v.inside) {
-            trilinear(&mut padded, vote.at, vote.weight);
+        for i in 0..side {
+            if insides[i] {
+                let corner = (cells[i] as usize, bins[i] as usize);
+                trilinear(&mut padded, corner, (fus[i], fvs[i], fps[i]), weights[i]);
+            }
         }
     }
     let mut hist = vec![0.0f32; STEERED_LEN];
     for cv in 0..CELLS {
         for cu in 0..CELLS {
-            let from = ((cv + 1) * PADDED_CELLS + cu + 1) * DIRECTIONS;
             let to = (cv * CELLS + cu) * DIRECTIONS;
-            hist[to..to + DIRECTIONS].copy_from_slice(&padded[from..from + DIRECTIONS]);
+            hist[to..to + DIRECTIONS].copy_from_slice(&padded[(cv + 1) * PADDED_CELLS + cu + 1]);
         }
     }
     normalise(&mut hist);
@@ -231,33 +348,75 @@ fn describe(
     }
 }
 
-/// One pixel's vote: its place in the frame (cells, cells, direction bins), its weight, and
-/// whether it lies inside the window with a gradient.
-#[derive(Clone, Copy, Default)]
-struct Vote {
-    at: (f32, f32, f32),
-    weight: f32,
-    inside: bool,
+/// A patch row's votes, one entry per pixel: the padded cell and the direction bin of the
+/// lower corner of the 2×2×2 bins around its place in the frame, its offsets from that corner
+/// (cells, cells, bins), its weight, and whether it lies inside the window with a gradient.
+#[derive(Default)]
+struct Votes {
+    cell: Vec<i32>,
+    bin: Vec<i32>,
+    fraction: [Vec<f32>; 3],
+    weight: Vec<f32>,
+    inside: Vec<bool>,
+}
+
+impl Votes {
+    /// Room for rows of `len` pixels.
+    fn resize(&mut self, len: usize) {
+        self.cell.resize(len, 0);
+        self.bin.resize(len, 0);
+        for f in &mut self.fraction {
+            f.resize(len, 0.0);
+        }
+        self.weight.resize(len, 0.0);
+        self.inside.resize(len, false);
+    }
 }
 
 /// Cells per side of the histogram the votes go to: the 4×4 and a spare ring around it.
 const PADDED_CELLS: usize = CELLS + 2;
-/// Length of that histogram.
-const PADDED_LEN: usize = PADDED_CELLS * PADDED_CELLS * DIRECTIONS;
+/// Lane i of row d is 1 where i = d: the direction bins a vote's two weights go to.
+const ONE_HOT: [[f32; DIRECTIONS]; DIRECTIONS] = {
+    let mut rows = [[0.0; DIRECTIONS]; DIRECTIONS];
+    let mut d = 0;
+    while d < DIRECTIONS {
+        rows[d][d] = 1.0;
+        d += 1;
+    }
+    rows
+};
+/// That histogram: each cell's direction bins, row by row.
+type Padded = [[f32; DIRECTIONS]; PADDED_CELLS * PADDED_CELLS];
 
-/// Adds a pixel's weight `w` to the 2×2×2 bins around (u, v, φ) (cells, cells, direction
+/// Adds a pixel's vote to the 2×2×2 bins around its place (u, v, φ) (cells, cells, direction
 /// bins) with trilinear weights, in the padded histogram: u and v lie in (−1, CELLS), so the
 /// cells reached are 0 … CELLS + 1 after the shift by one.
+///
+/// A cell's eight direction bins are one 8-lane block: the vote adds to each of its four
+/// cells a block that is zero but for the two direction bins, so it makes four vector
+/// additions instead of eight scalar ones. Every bin still receives w·w_u·w_v·w_φ, in the
+/// same order (adding the other lanes' +0 to a non-negative sum changes nothing).
 #[inline(always)]
-fn trilinear(hist: &mut [f32; PADDED_LEN], (u, v, phi): (f32, f32, f32), w: f32) {
-    let (u0, v0, p0) = (floor(u), floor(v), phi as i32 as f32);
-    let (fu, fv, fp) = (u - u0, v - v0, phi - p0);
-    let (cu, cv, d) = ((u0 + 1.0) as usize, (v0 + 1.0) as usize, p0 as usize);
+fn trilinear(
+    hist: &mut Padded,
+    (corner, bin): (usize, usize),
+    (fu, fv, fp): (f32, f32, f32),
+    w: f32,
+) {
+    let d = bin % DIRECTIONS;
+    let next = (d + 1) % DIRECTIONS;
+    let (low, high) = (&ONE_HOT[d], &ONE_HOT[next]);
+    let mut spread = [0.0f32; DIRECTIONS];
+    for ((slot, &l), &h) in spread.iter_mut().zip(low).zip(high) {
+        // Exactly 1 − f_φ, f_φ or 0 in each lane: x·1 = x, x·0 + y = y.
+        *slot = l * (1.0 - fp) + h * fp;
+    }
     for (du, wu) in [(0, 1.0 - fu), (1, fu)] {
-        for (dv, wv) in [(0, 1.0 - fv), (1, fv)] {
-            let cell = ((cv + dv) * PADDED_CELLS + cu + du) * DIRECTIONS;
-            for (dp, wp) in [(0, 1.0 - fp), (1, fp)] {
-                hist[cell + (d + dp) % DIRECTIONS] += w * wu * wv * wp;
+        for (dv, wv) in [(0, 1.0 - fv), (PADDED_CELLS, fv)] {
+            let share = w * wu * wv;
+            let block = &mut hist[corner + dv + du];
+            for (bin, &wp) in block.iter_mut().zip(&spread) {
+                *bin += share * wp;
             }
         }
     }
@@ -277,12 +436,16 @@ fn normalise(v: &mut [f32]) {
 /// a Gaussian window of σ `sigma`, smoothed twice with [1, 2, 1]/4 and refined by a
 /// parabola. `dxs`, `dys`: the offsets of the patch's columns and rows from the keypoint.
 #[inline(always)]
-fn dominant_orientation(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32) -> f32 {
+fn dominant_orientation<F: Floor>(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32) -> f32 {
     let mut hist = [0.0f32; ORIENTATION_BINS];
     let to_bin = ORIENTATION_BINS as f32 / TAU;
     let limit = (3.0 * sigma).powi(2);
     let (gx, gy) = (gaussian_factors(dxs, sigma), gaussian_factors(dys, sigma));
     for (j, &dy) in dys.iter().enumerate() {
+        // dx² + dy² rounds to at least dy², so a row beyond the disc has no pixel in it.
+        if dy * dy > limit {
+            continue;
+        }
         for (i, &dx) in dxs.iter().enumerate() {
             if dx * dx + dy * dy > limit {
                 continue;
@@ -290,12 +453,22 @@ fn dominant_orientation(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32)
             let k = j * patch.side + i;
             let w = patch.magnitude[k] * (gx[i] * gy[j]);
             // Linear vote between the two nearest bins keeps θ* continuous under rotation.
-            let b = wrap_angle(patch.direction[k]) * to_bin - 0.5;
-            let b0 = floor(b);
+            let b = F::wrap(patch.direction[k]) * to_bin - 0.5;
+            let b0 = F::floor(b);
             let f = b - b0;
-            let i0 = (b0 as i64).rem_euclid(ORIENTATION_BINS as i64) as usize;
+            // b lies in [−0.5, 36.5]: the bin below wraps by one turn at most either way.
+            let i0 = match b0 as i64 {
+                i if i < 0 => i + ORIENTATION_BINS as i64,
+                i if i >= ORIENTATION_BINS as i64 => i - ORIENTATION_BINS as i64,
+                i => i,
+            } as usize;
+            let i1 = if i0 + 1 == ORIENTATION_BINS {
+                0
+            } else {
+                i0 + 1
+            };
             hist[i0] += w * (1.0 - f);
-            hist[(i0 + 1) % ORIENTATION_BINS] += w * f;
+            hist[i1] += w * f;
         }
     }
     for _ in 0..2 {
@@ -312,7 +485,7 @@ fn dominant_orientation(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32)
         );
     let at = |d: usize| hist[(peak + ORIENTATION_BINS + d - 1) % ORIENTATION_BINS];
     let offset = crate::features::harris::cpu::parabola_offset(at(0), at(1), at(2));
-    wrap_angle((peak as f32 + 0.5 + offset) / to_bin)
+    F::wrap((peak as f32 + 0.5 + offset) / to_bin)
 }
 
 /// Euclidean distance between two steered descriptors.

@@ -104,12 +104,6 @@ pub(crate) fn fast_atan2(y: f32, x: f32) -> f32 {
     }
 }
 
-/// `a` wrapped into [0, 2π), written out so both backends compute it the same way.
-#[inline(always)]
-pub(crate) fn wrap_angle(a: f32) -> f32 {
-    a - std::f32::consts::TAU * floor(a / std::f32::consts::TAU)
-}
-
 /// floor(t) for |t| < 2³¹, inline (the baseline x86-64 target calls the library for it).
 #[inline(always)]
 pub(crate) fn floor(t: f32) -> f32 {
