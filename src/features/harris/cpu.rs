@@ -10,7 +10,7 @@ use super::plan::{harris_response, HarrisPlan};
 use crate::features::convolve::{column_at, convolve_separable, row_at};
 use crate::features::pyramid::Pyramid;
 use crate::features::Candidate;
-use crate::simd::{max_or, set_bits, strict_maxima, tensor_responses};
+use crate::simd::{max_or, multiply, set_bits, strict_maxima, tensor_responses};
 
 /// Rows `[first_row, first_row + rows)` of one scale's grid, for every orientation (layout
 /// `[θ][row][i]`).
@@ -350,13 +350,7 @@ fn scale_responses(
                         &b.derivatives[a * rows * gw..(a + 1) * rows * gw],
                         &b.derivatives[c * rows * gw..(c + 1) * rows * gw],
                     );
-                    for ((o, &x), &y) in b.products[p * rows * gw..(p + 1) * rows * gw]
-                        .iter_mut()
-                        .zip(da)
-                        .zip(dc)
-                    {
-                        *o = x * y;
-                    }
+                    multiply(&mut b.products[p * rows * gw..(p + 1) * rows * gw], da, dc);
                 }
                 for j in j0..j1 {
                     // Window blur of every product at grid row j (columns, then rows).
