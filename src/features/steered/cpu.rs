@@ -22,8 +22,8 @@ struct Patch {
     direction: Vec<f32>,
 }
 
-/// A worker's buffers, kept from keypoint to keypoint: a frame's 500 descriptors would
-/// otherwise allocate and free nine vectors each.
+/// A worker's patch and vote buffers, kept from keypoint to keypoint instead of allocated
+/// and freed for each of a frame's descriptors.
 #[derive(Default)]
 struct Scratch {
     rows: Vec<f32>,
@@ -314,8 +314,8 @@ fn describe_patch<F: Floor>(
             // Direction of steepest steered response relative to the frame, in bins.
             let phi = F::wrap(d - orientation) * to_bin;
             // The lower corner of the 2×2×2 bins and the offsets from it; for a pixel inside
-            // the window every corner value is a small integer.
-            // φ ≥ 0, so its floor is its truncation.
+            // the window every corner value is a small integer (φ ≥ 0: its floor is the
+            // truncation the vote used to take).
             let (u0, v0, p0) = (F::floor(u), F::floor(v), F::floor(phi));
             fus[i] = u - u0;
             fvs[i] = v - v0;
@@ -388,9 +388,10 @@ const ONE_HOT: [[f32; DIRECTIONS]; DIRECTIONS] = {
 /// That histogram: each cell's direction bins, row by row.
 type Padded = [[f32; DIRECTIONS]; PADDED_CELLS * PADDED_CELLS];
 
-/// Adds a pixel's vote to the 2×2×2 bins around its place (u, v, φ) (cells, cells, direction
-/// bins) with trilinear weights, in the padded histogram: u and v lie in (−1, CELLS), so the
-/// cells reached are 0 … CELLS + 1 after the shift by one.
+/// Adds a pixel's weight `w` to the 2×2×2 bins around its place (u, v, φ) (cells, cells,
+/// direction bins) with trilinear weights, in the padded histogram: `corner` is the padded
+/// cell of (⌊u⌋, ⌊v⌋), `bin` ⌊φ⌋ and the offsets (u − ⌊u⌋, v − ⌊v⌋, φ − ⌊φ⌋). u and v lie
+/// in (−1, CELLS), so the cells reached are 0 … CELLS + 1 after the shift by one.
 ///
 /// A cell's eight direction bins are one 8-lane block: the vote adds to each of its four
 /// cells a block that is zero but for the two direction bins, so it makes four vector
@@ -456,7 +457,7 @@ fn dominant_orientation<F: Floor>(patch: &Patch, (dxs, dys): (&[f32], &[f32]), s
             let b = F::wrap(patch.direction[k]) * to_bin - 0.5;
             let b0 = F::floor(b);
             let f = b - b0;
-            // b lies in [−0.5, 36.5]: the bin below wraps by one turn at most either way.
+            // b lies in [−0.5, 35.5] (and rounding): the bin below wraps by one turn at most.
             let i0 = match b0 as i64 {
                 i if i < 0 => i + ORIENTATION_BINS as i64,
                 i if i >= ORIENTATION_BINS as i64 => i - ORIENTATION_BINS as i64,
