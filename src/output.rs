@@ -21,7 +21,7 @@ pub struct ImageKeypoints {
     pub height: u32,
     /// "gpu" or "cpu".
     pub backend: String,
-    /// The descriptor's name: "steered" or "entropy".
+    /// The descriptor's name: "steered", "steered-twin", "entropy" or "none".
     pub descriptor: String,
     /// Values per descriptor.
     pub descriptor_length: usize,

@@ -182,3 +182,50 @@ fn the_match_command_keeps_a_thousand_keypoints_unless_told_otherwise() {
     assert_eq!(count(&["--max-keypoints".as_ref(), "200".as_ref()]), 200);
     assert_eq!(count(&["--config".as_ref(), settings.as_os_str()]), 300);
 }
+
+/// `steered-twin` reads each keypoint in the frames of both its orientation peaks: the first
+/// frame is the plain steered descriptor, and on the same rotated pair the twin finds at least
+/// the plain descriptor's correct matches, 95% of its matches correct.
+#[test]
+fn twin_frames_keep_the_plain_descriptor_and_match_at_least_as_well() {
+    let scene = textured_scene(400, 300, 21);
+    let (turned, map) = rotate(&scene, 37f32.to_radians(), 460, 420);
+    let count = |config: &DetectorConfig| {
+        let detector = common::cpu_detector(config);
+        let (a, b) = (
+            detector.detect(&scene).unwrap(),
+            detector.detect(&turned).unwrap(),
+        );
+        let point = |k: &steernav::Keypoint| (k.x as f64, k.y as f64);
+        let matches = mutual_matches(&a.keypoints, &b.keypoints, 0.8);
+        let good = matches
+            .iter()
+            .filter(|m| correct(&map, point(&a.keypoints[m.i]), point(&b.keypoints[m.j])))
+            .count();
+        (a, good, matches.len())
+    };
+    let plain = count(&DetectorConfig::default());
+    let twin_config = DetectorConfig {
+        descriptor: steernav::features::DescriptorKind::SteeredTwin,
+        ..DetectorConfig::default()
+    };
+    let twin = count(&twin_config);
+    for (p, t) in plain.0.keypoints.iter().zip(&twin.0.keypoints) {
+        assert_eq!((p.x, p.y), (t.x, t.y));
+        assert_eq!(t.descriptor.len(), 256);
+        assert_eq!(p.descriptor[..], t.descriptor[..128]);
+    }
+    assert!(
+        twin.1 >= plain.1,
+        "twin {} correct, plain {}",
+        twin.1,
+        plain.1
+    );
+    // 113 of 115 correct against 105 of 106.
+    assert!(
+        twin.1 as f64 >= 0.95 * twin.2 as f64,
+        "twin {} of {} correct",
+        twin.1,
+        twin.2
+    );
+}

@@ -26,10 +26,11 @@ pub(crate) struct Keypoints {
     /// (K,) float32: strongest Harris response of the cluster.
     #[pyo3(get)]
     response: Py<PyArray1<f32>>,
-    /// (K, L) float32: the descriptors (L = 128 for "steered", 5 for "entropy").
+    /// (K, L) float32: the descriptors (L = 128 for "steered", 256 for "steered-twin", 5 for
+    /// "entropy").
     #[pyo3(get)]
     descriptor: Py<PyArray2<f32>>,
-    /// The descriptor's name: "steered" or "entropy".
+    /// The descriptor's name: "steered", "steered-twin" or "entropy".
     #[pyo3(get)]
     descriptor_kind: &'static str,
     /// "cpu" or "gpu": where the detection ran.
@@ -125,7 +126,7 @@ impl Keypoints {
             descriptor_kind: known_name(
                 "descriptor_kind",
                 descriptor_kind,
-                &["steered", "entropy"],
+                &["steered", "steered-twin", "entropy"],
             )?,
             backend: known_name("backend", backend, &["cpu", "gpu"])?,
             len: k,

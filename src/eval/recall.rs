@@ -6,6 +6,7 @@
 
 use super::homography::{project, Homography};
 use super::repeatability::correspondences;
+use crate::features::steered::STEERED_LEN;
 
 /// Descriptors of a keypoint set, one per point.
 #[derive(Clone, Debug, PartialEq)]
@@ -64,6 +65,9 @@ impl Descriptors {
     /// Distance between descriptor `i` of `self` and descriptor `j` of `other` (same kind).
     pub fn distance(&self, i: usize, other: &Self, j: usize) -> f64 {
         match (self, other) {
+            (Descriptors::Float(a), Descriptors::Float(b)) if a[i].len() == 2 * STEERED_LEN => {
+                (crate::features::steered::squared_distance(&a[i], &b[j]) as f64).sqrt()
+            }
             (Descriptors::Float(a), Descriptors::Float(b)) => a[i]
                 .iter()
                 .zip(&b[j])

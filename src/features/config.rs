@@ -70,6 +70,14 @@ pub enum DescriptorKind {
     /// 128 steered first-order responses in the keypoint's own frame, for matching
     /// ([`crate::low_level::steered`]).
     Steered,
+    /// The steered descriptor read in two frames: the orientation histogram's highest peak and,
+    /// where a second peak reaches 0.8 of it, that one too (a corner's other edge); 256 values,
+    /// the second 128 a copy of the first when there is no second peak. Two such descriptors
+    /// are as near as their nearest pair of frames
+    /// ([`crate::low_level::steered::squared_distance`]), so a keypoint whose orientation
+    /// flips between views still matches. Computed on the CPU on every backend.
+    #[serde(rename = "steered-twin")]
+    SteeredTwin,
     /// The paper's five colour entropies (section 2.3, eqs 9–10).
     Entropy,
     /// Keypoints only, for callers that describe (or track) them their own way, as SLAM does
@@ -77,13 +85,19 @@ pub enum DescriptorKind {
     None,
 }
 
-named_variants!(DescriptorKind { Steered => "steered", Entropy => "entropy", None => "none" });
+named_variants!(DescriptorKind {
+    Steered => "steered",
+    SteeredTwin => "steered-twin",
+    Entropy => "entropy",
+    None => "none"
+});
 
 impl DescriptorKind {
     /// Number of values per keypoint.
     pub fn length(self) -> usize {
         match self {
             DescriptorKind::Steered => crate::features::steered::STEERED_LEN,
+            DescriptorKind::SteeredTwin => 2 * crate::features::steered::STEERED_LEN,
             DescriptorKind::Entropy => 5,
             DescriptorKind::None => 0,
         }

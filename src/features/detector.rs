@@ -15,7 +15,7 @@ use super::harris::HarrisPlan;
 use super::harris::{CpuHarris, CpuTimings};
 use super::merge::merge;
 use super::pyramid::Pyramid;
-use super::steered::cpu::describe_steered_blurred;
+use super::steered::cpu::{describe_steered_blurred, describe_steered_twin_blurred};
 use super::steered::gpu::{Plane, PlanePoint};
 use super::steered::GpuSteered;
 use super::{Candidate, Keypoint};
@@ -355,13 +355,15 @@ impl Detector {
     }
 
     /// Steered descriptors of `keypoints`, each read on its scale's pyramid level
-    /// ([`descriptor_level`]), on the GPU when the candidates came from it.
+    /// ([`descriptor_level`]), on the GPU when the candidates came from it; with `twin`, in
+    /// the frames of both orientation peaks (`steered-twin`, on the CPU).
     fn describe_steered(
         &self,
         frame: &Frame,
         backend: Backend,
         keypoints: &mut [Keypoint],
         pyramid: Option<&Pyramid>,
+        twin: bool,
     ) -> Result<()> {
         let built;
         let pyramid = match pyramid {
@@ -383,7 +385,7 @@ impl Detector {
             )
         };
         match (&self.gpu_steered, backend) {
-            (Some(g), Backend::Gpu) => {
+            (Some(g), Backend::Gpu) if !twin => {
                 let planes: Vec<Plane> = (0..=top)
                     .map(|level| {
                         let (gray, lw, lh) = pyramid.level(level);
@@ -410,7 +412,13 @@ impl Detector {
             _ => keypoints.par_iter_mut().for_each(|k| {
                 let (level, point, blur) = on_level(k);
                 let (plane, lw, lh) = pyramid.level(level);
-                k.descriptor = describe_steered_blurred(plane, lw, lh, point, blur).values;
+                k.descriptor = if twin {
+                    let (first, second) = describe_steered_twin_blurred(plane, lw, lh, point, blur);
+                    let second = second.map_or_else(|| first.values.clone(), |s| s.values);
+                    [first.values, second].concat()
+                } else {
+                    describe_steered_blurred(plane, lw, lh, point, blur).values
+                };
             }),
         }
         Ok(())
@@ -457,8 +465,9 @@ impl Detector {
         // Descriptors on the backend that found the candidates; a steered descriptor is read
         // on the pyramid level where its window has a few pixels per cell.
         match kind {
-            DescriptorKind::Steered => {
-                self.describe_steered(frame, backend, &mut keypoints, pyramid)?;
+            DescriptorKind::Steered | DescriptorKind::SteeredTwin => {
+                let twin = kind == DescriptorKind::SteeredTwin;
+                self.describe_steered(frame, backend, &mut keypoints, pyramid, twin)?;
             }
             DescriptorKind::Entropy => keypoints.par_iter_mut().for_each(|k| {
                 k.descriptor = describe(frame, k.x, k.y).to_vec();

@@ -58,7 +58,7 @@ fn ratio_nearest<'a>(
 ) -> Option<(usize, f32)> {
     let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
     for (j, q) in candidates {
-        let d2 = squared_distance(&p.descriptor, &q.descriptor);
+        let d2 = crate::features::steered::squared_distance(&p.descriptor, &q.descriptor);
         if d2 < best.1 {
             second = best.1;
             best = (j, d2);
@@ -326,10 +326,6 @@ pub fn guided_matches(
         .collect();
     out.sort_by(|x, y| x.distance.total_cmp(&y.distance).then(x.i.cmp(&y.i)));
     out
-}
-
-fn squared_distance(x: &[f32], y: &[f32]) -> f32 {
-    x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum()
 }
 
 /// Pixel correspondences (x₁, y₁) → (x₂, y₂).

@@ -246,7 +246,7 @@ impl HarrisPlan {
             })
             .collect();
         let descriptor_levels = match config.descriptor {
-            DescriptorKind::Steered => scales
+            DescriptorKind::Steered | DescriptorKind::SteeredTwin => scales
                 .iter()
                 .map(|s| descriptor_level(s.sigma_d))
                 .max()

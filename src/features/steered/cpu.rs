@@ -6,7 +6,7 @@ use std::f32::consts::TAU;
 
 use super::{
     fast_atan2, floor, nearest_pixel, patch_geometry, Steered, CELLS, CELL_SIGMAS, CLIP,
-    DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN,
+    DIRECTIONS, ORIENTATION_BINS, ORIENTATION_SIGMAS, STEERED_LEN, TWIN_PEAK,
 };
 use crate::features::harris::plan::IMAGE_BLUR;
 use crate::features::steerable::Kernel1d;
@@ -173,6 +173,30 @@ pub fn describe_steered_blurred(
     point: (f32, f32, f32),
     prior_blur: f32,
 ) -> Steered {
+    described(gray, width, height, point, prior_blur, false).0
+}
+
+/// [`describe_steered_blurred`] and, where the orientation histogram has a second peak of at
+/// least 0.8 of the highest, the descriptor read in that peak's frame too (the
+/// `steered-twin` kind).
+pub fn describe_steered_twin_blurred(
+    gray: &[f32],
+    width: usize,
+    height: usize,
+    point: (f32, f32, f32),
+    prior_blur: f32,
+) -> (Steered, Option<Steered>) {
+    described(gray, width, height, point, prior_blur, true)
+}
+
+fn described(
+    gray: &[f32],
+    width: usize,
+    height: usize,
+    point: (f32, f32, f32),
+    prior_blur: f32,
+    twin: bool,
+) -> (Steered, Option<Steered>) {
     // The buffers are taken here, outside the AVX2 build: a closure inside it would be
     // compiled without its target features.
     SCRATCH.with(|cell| {
@@ -180,9 +204,9 @@ pub fn describe_steered_blurred(
         #[cfg(target_arch = "x86_64")]
         if crate::simd::has_avx2_fma() {
             // SAFETY: the CPU supports AVX2 (checked above).
-            return unsafe { describe_avx2(gray, width, height, point, prior_blur, scratch) };
+            return unsafe { describe_avx2(gray, width, height, point, prior_blur, twin, scratch) };
         }
-        describe::<Truncated>(gray, width, height, point, prior_blur, scratch)
+        describe::<Truncated>(gray, width, height, point, prior_blur, twin, scratch)
     })
 }
 
@@ -197,9 +221,10 @@ unsafe fn describe_avx2(
     height: usize,
     point: (f32, f32, f32),
     prior_blur: f32,
+    twin: bool,
     scratch: &mut Scratch,
-) -> Steered {
-    describe::<Rounded>(gray, width, height, point, prior_blur, scratch)
+) -> (Steered, Option<Steered>) {
+    describe::<Rounded>(gray, width, height, point, prior_blur, twin, scratch)
 }
 
 /// How a build rounds down. Both give the same value wherever the descriptor rounds (|t| <
@@ -246,29 +271,43 @@ fn describe<F: Floor>(
     height: usize,
     (x, y, sigma): (f32, f32, f32),
     prior_blur: f32,
+    twin: bool,
     scratch: &mut Scratch,
-) -> Steered {
+) -> (Steered, Option<Steered>) {
     let cell = CELL_SIGMAS * sigma;
     let window = CELLS as f32 * cell;
     let (half, kernel) = patch_geometry(sigma, prior_blur);
     let patch = Patch::around(gray, width, height, (x, y), half, &kernel, scratch);
-    let described = describe_patch::<F>(&patch, (x, y, sigma), (cell, window), &mut scratch.votes);
+    let offsets = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
+    let (first, second) =
+        orientations::<F>(&patch, (&offsets.0, &offsets.1), ORIENTATION_SIGMAS * sigma);
+    let mut read = |orientation| {
+        describe_patch::<F>(
+            &patch,
+            &offsets,
+            orientation,
+            (cell, window),
+            &mut scratch.votes,
+        )
+    };
+    let described = read(first);
+    let twin = second.filter(|_| twin).map(read);
     scratch.magnitude = patch.magnitude;
     scratch.direction = patch.direction;
-    described
+    (described, twin)
 }
 
-/// The orientation and descriptor of the keypoint at (x, y) of scale `sigma` from its
-/// smoothed patch, with cells of side `cell` in a window of side `window` (pixels).
+/// The descriptor of a keypoint from its smoothed patch, read in the frame of direction
+/// `orientation`, with cells of side `cell` in a window of side `window` (pixels); `dxs`,
+/// `dys`: the offsets of the patch's columns and rows from the keypoint.
 #[inline(always)]
 fn describe_patch<F: Floor>(
     patch: &Patch,
-    (x, y, sigma): (f32, f32, f32),
+    (dxs, dys): &(Vec<f32>, Vec<f32>),
+    orientation: f32,
     (cell, window): (f32, f32),
     votes: &mut Votes,
 ) -> Steered {
-    let (dxs, dys) = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
-    let orientation = dominant_orientation::<F>(patch, (&dxs, &dys), ORIENTATION_SIGMAS * sigma);
     let (sin, cos) = orientation.sin_cos();
     // Votes go to a histogram with a ring of spare cells around the 4×4, so that the
     // trilinear vote needs no bounds checks; the spare cells are dropped afterwards. Each
@@ -277,8 +316,8 @@ fn describe_patch<F: Floor>(
     let weight_sigma = 0.5 * window;
     let to_bin = DIRECTIONS as f32 / TAU;
     let (gx, gy) = (
-        gaussian_factors(&dxs, weight_sigma),
-        gaussian_factors(&dys, weight_sigma),
+        gaussian_factors(dxs, weight_sigma),
+        gaussian_factors(dys, weight_sigma),
     );
     // Row by row: first every pixel's place in the frame, weight and direction bin in a loop
     // without branches over plain arrays (it vectorises), then the votes of the pixels inside
@@ -435,9 +474,14 @@ fn normalise(v: &mut [f32]) {
 
 /// θ* in [0, 2π): the peak of the magnitude-weighted histogram of gradient directions within
 /// a Gaussian window of σ `sigma`, smoothed twice with [1, 2, 1]/4 and refined by a
-/// parabola. `dxs`, `dys`: the offsets of the patch's columns and rows from the keypoint.
+/// parabola; and the highest other local peak when it reaches [`TWIN_PEAK`] of θ*'s.
+/// `dxs`, `dys`: the offsets of the patch's columns and rows from the keypoint.
 #[inline(always)]
-fn dominant_orientation<F: Floor>(patch: &Patch, (dxs, dys): (&[f32], &[f32]), sigma: f32) -> f32 {
+fn orientations<F: Floor>(
+    patch: &Patch,
+    (dxs, dys): (&[f32], &[f32]),
+    sigma: f32,
+) -> (f32, Option<f32>) {
     let mut hist = [0.0f32; ORIENTATION_BINS];
     let to_bin = ORIENTATION_BINS as f32 / TAU;
     let limit = (3.0 * sigma).powi(2);
@@ -484,9 +528,19 @@ fn dominant_orientation<F: Floor>(patch: &Patch, (dxs, dys): (&[f32], &[f32]), s
             (0, f32::MIN),
             |best, (i, &v)| if v > best.1 { (i, v) } else { best },
         );
-    let at = |d: usize| hist[(peak + ORIENTATION_BINS + d - 1) % ORIENTATION_BINS];
-    let offset = crate::features::harris::cpu::parabola_offset(at(0), at(1), at(2));
-    F::wrap((peak as f32 + 0.5 + offset) / to_bin)
+    let refined = |i: usize| {
+        let at = |d: usize| hist[(i + ORIENTATION_BINS + d - 1) % ORIENTATION_BINS];
+        let offset = crate::features::harris::cpu::parabola_offset(at(0), at(1), at(2));
+        F::wrap((i as f32 + 0.5 + offset) / to_bin)
+    };
+    let second = (0..ORIENTATION_BINS)
+        .filter(|&i| i != peak)
+        .filter(|&i| {
+            let at = |d: usize| hist[(i + ORIENTATION_BINS + d - 1) % ORIENTATION_BINS];
+            at(1) > at(0) && at(1) >= at(2) && at(1) >= TWIN_PEAK * hist[peak]
+        })
+        .max_by(|&a, &b| hist[a].total_cmp(&hist[b]));
+    (refined(peak), second.map(refined))
 }
 
 /// Euclidean distance between two steered descriptors.
@@ -502,6 +556,52 @@ pub fn distance(a: &[f32], b: &[f32]) -> f32 {
 mod tests {
     use super::*;
     use std::f32::consts::PI;
+
+    /// A corner whose two edges have like contrast has two orientation peaks a quarter turn
+    /// apart: the twin descriptor reads both frames, its first frame is the plain steered
+    /// descriptor, and the twin of a keypoint matches the same corner turned so that the other
+    /// edge wins. A lone edge has one peak and no second frame.
+    #[test]
+    fn a_corner_gets_a_second_frame_and_an_edge_does_not() {
+        let (w, h) = (64usize, 64usize);
+        // Bright where x > 32 or y > 32 (an L of two edges, the lower one a little stronger).
+        let corner = |gain: f32| -> Vec<f32> {
+            (0..w * h)
+                .map(|k| {
+                    let (x, y) = (k % w, k / w);
+                    0.2 + if y > 32 {
+                        0.6
+                    } else if x > 32 {
+                        0.6 * gain
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        };
+        let gray = corner(0.95);
+        let point = (32.5, 32.5, 2.0);
+        let (first, second) = describe_steered_twin_blurred(&gray, w, h, point, IMAGE_BLUR);
+        assert_eq!(
+            first,
+            describe_steered_blurred(&gray, w, h, point, IMAGE_BLUR)
+        );
+        let second = second.expect("two edges of like contrast give two peaks");
+        let apart = (second.orientation - first.orientation).rem_euclid(TAU);
+        let apart = apart.min(TAU - apart);
+        assert!((apart - PI / 2.0).abs() < 0.3, "{apart}");
+        let plain = |a: &Steered, b: &Steered| super::super::squared_distance(&a.values, &b.values);
+        assert!(plain(&first, &second) > 0.1);
+        // Both frames concatenated: as near as the nearest pair of frames.
+        let twin = [first.values.clone(), second.values.clone()].concat();
+        let alone = [second.values.clone(), second.values.clone()].concat();
+        assert_eq!(super::super::squared_distance(&twin, &alone), 0.0);
+        let edge: Vec<f32> = (0..w * h)
+            .map(|k| if k / w > 32 { 0.8 } else { 0.2 })
+            .collect();
+        let (_, none) = describe_steered_twin_blurred(&edge, w, h, point, IMAGE_BLUR);
+        assert!(none.is_none());
+    }
 
     #[test]
     fn an_edge_gives_its_normal_as_orientation_and_a_flat_patch_zeros() {

@@ -49,6 +49,9 @@ pub(crate) const ORIENTATION_SIGMAS: f32 = 3.3;
 pub(crate) const ORIENTATION_BINS: usize = 36;
 /// Largest value of the normalised descriptor before the second normalisation.
 pub(crate) const CLIP: f32 = 0.2;
+/// A second orientation-histogram peak at least this share of the highest gets a frame of its
+/// own in the `steered-twin` descriptor (SIFT's 0.8).
+pub(crate) const TWIN_PEAK: f32 = 0.8;
 /// Gaussian smoothing kernels are truncated at this many σ.
 pub(crate) const SMOOTH_TRUNCATE: f32 = 3.0;
 
@@ -112,6 +115,24 @@ pub(crate) fn floor(t: f32) -> f32 {
         f - 1.0
     } else {
         f
+    }
+}
+
+/// Squared Euclidean distance between two descriptors of one kind; two `steered-twin`
+/// descriptors (2 × [`STEERED_LEN`] values, one frame each) are as near as their nearest pair
+/// of frames.
+pub fn squared_distance(a: &[f32], b: &[f32]) -> f32 {
+    let plain =
+        |x: &[f32], y: &[f32]| -> f32 { x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum() };
+    if a.len() == 2 * STEERED_LEN && b.len() == 2 * STEERED_LEN {
+        let (a1, a2) = a.split_at(STEERED_LEN);
+        let (b1, b2) = b.split_at(STEERED_LEN);
+        plain(a1, b1)
+            .min(plain(a1, b2))
+            .min(plain(a2, b1))
+            .min(plain(a2, b2))
+    } else {
+        plain(a, b)
     }
 }
 
