@@ -29,6 +29,11 @@ def test_detect_matches_the_cli(sample, sample_file, cli_exe):
     assert ours.descriptor_kind == "steered"
     paper = steernav.Detector(backend="cpu", descriptor="entropy").detect(sample)
     assert paper.descriptor.shape == (len(paper), 5) and paper.descriptor_kind == "entropy"
+    # Both orientation frames: the same keypoints, the first frame the plain descriptor.
+    twin = steernav.Detector(backend="cpu", descriptor="steered-twin").detect(sample)
+    assert twin.descriptor.shape == (len(ours), 256) and twin.descriptor_kind == "steered-twin"
+    assert np.array_equal(twin.xy, ours.xy)
+    assert np.array_equal(twin.descriptor[:, :128], ours.descriptor)
 
 
 def test_grey_float_and_batch_inputs(sample):
