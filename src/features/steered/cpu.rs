@@ -50,9 +50,12 @@ impl Patch {
     /// (borders clamped), and its central-difference gradient, in `scratch`'s buffers.
     #[inline(always)]
     fn around(
-        gray: &[f32],
-        width: usize,
-        height: usize,
+        &Plane {
+            gray,
+            width,
+            height,
+            ..
+        }: &Plane,
         (x, y): (f32, f32),
         half: usize,
         kernel: &Kernel1d,
@@ -173,7 +176,13 @@ pub fn describe_steered_blurred(
     point: (f32, f32, f32),
     prior_blur: f32,
 ) -> Steered {
-    described(gray, width, height, point, prior_blur, false).0
+    let plane = Plane {
+        gray,
+        width,
+        height,
+        prior_blur,
+    };
+    described(&plane, point, false).0
 }
 
 /// [`describe_steered_blurred`] and, where the orientation histogram has a second peak of at
@@ -186,17 +195,26 @@ pub fn describe_steered_twin_blurred(
     point: (f32, f32, f32),
     prior_blur: f32,
 ) -> (Steered, Option<Steered>) {
-    described(gray, width, height, point, prior_blur, true)
+    let plane = Plane {
+        gray,
+        width,
+        height,
+        prior_blur,
+    };
+    described(&plane, point, true)
 }
 
-fn described(
-    gray: &[f32],
+/// A luminance plane and the blur it already carries (pixels).
+struct Plane<'a> {
+    gray: &'a [f32],
     width: usize,
     height: usize,
-    point: (f32, f32, f32),
     prior_blur: f32,
-    twin: bool,
-) -> (Steered, Option<Steered>) {
+}
+
+/// The descriptor of the keypoint `point` (x, y, scale) on `plane`, and with `twin` the one
+/// in its second orientation peak's frame.
+fn described(plane: &Plane, point: (f32, f32, f32), twin: bool) -> (Steered, Option<Steered>) {
     // The buffers are taken here, outside the AVX2 build: a closure inside it would be
     // compiled without its target features.
     SCRATCH.with(|cell| {
@@ -204,9 +222,9 @@ fn described(
         #[cfg(target_arch = "x86_64")]
         if crate::simd::has_avx2_fma() {
             // SAFETY: the CPU supports AVX2 (checked above).
-            return unsafe { describe_avx2(gray, width, height, point, prior_blur, twin, scratch) };
+            return unsafe { describe_avx2(plane, point, twin, scratch) };
         }
-        describe::<Truncated>(gray, width, height, point, prior_blur, twin, scratch)
+        describe::<Truncated>(plane, point, twin, scratch)
     })
 }
 
@@ -216,15 +234,12 @@ fn described(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn describe_avx2(
-    gray: &[f32],
-    width: usize,
-    height: usize,
+    plane: &Plane,
     point: (f32, f32, f32),
-    prior_blur: f32,
     twin: bool,
     scratch: &mut Scratch,
 ) -> (Steered, Option<Steered>) {
-    describe::<Rounded>(gray, width, height, point, prior_blur, twin, scratch)
+    describe::<Rounded>(plane, point, twin, scratch)
 }
 
 /// How a build rounds down. Both give the same value wherever the descriptor rounds (|t| <
@@ -266,18 +281,15 @@ impl Floor for Rounded {
 
 #[inline(always)]
 fn describe<F: Floor>(
-    gray: &[f32],
-    width: usize,
-    height: usize,
+    plane: &Plane,
     (x, y, sigma): (f32, f32, f32),
-    prior_blur: f32,
     twin: bool,
     scratch: &mut Scratch,
 ) -> (Steered, Option<Steered>) {
     let cell = CELL_SIGMAS * sigma;
     let window = CELLS as f32 * cell;
-    let (half, kernel) = patch_geometry(sigma, prior_blur);
-    let patch = Patch::around(gray, width, height, (x, y), half, &kernel, scratch);
+    let (half, kernel) = patch_geometry(sigma, plane.prior_blur);
+    let patch = Patch::around(plane, (x, y), half, &kernel, scratch);
     let offsets = (patch.offsets(patch.x0, x), patch.offsets(patch.y0, y));
     let (first, second) =
         orientations::<F>(&patch, (&offsets.0, &offsets.1), ORIENTATION_SIGMAS * sigma);
