@@ -14,6 +14,10 @@
 //!    rotated by θ*, binned into 4×4 cells × 8 directions φ_b with trilinear weights and a
 //!    Gaussian window (128 values). The vector is L2-normalised, clipped at 0.2 and
 //!    normalised again, so that a few saturated gradients (light changes) cannot dominate.
+//! 3. **Twin frames** (the `steered-twin` kind): where the smoothed histogram has a second
+//!    local peak of at least 0.8 of the highest (a corner's other edge), the patch is
+//!    also read in that peak's frame, and [`squared_distance`] takes the nearest pair of
+//!    frames, so a keypoint whose peaks trade places between two views still matches.
 //!
 //! Each keypoint works on its own patch, smoothed on the spot, so memory does not grow with
 //! the image. The detector reads a coarse keypoint on the pyramid level of its scale
