@@ -29,7 +29,7 @@ fn matches_on_a_rotated_pair_are_correct_under_the_known_map() {
         detector.detect(&scene).unwrap(),
         detector.detect(&turned).unwrap(),
     );
-    let matches = mutual_matches(&a.keypoints, &b.keypoints, 0.8);
+    let matches = mutual_matches(&a.keypoints, &b.keypoints, 0.8, 1);
     let point = |k: &steernav::Keypoint| (k.x as f64, k.y as f64);
     let pairs: Vec<_> = matches
         .iter()
@@ -197,7 +197,7 @@ fn twin_frames_keep_the_plain_descriptor_and_match_at_least_as_well() {
             detector.detect(&turned).unwrap(),
         );
         let point = |k: &steernav::Keypoint| (k.x as f64, k.y as f64);
-        let matches = mutual_matches(&a.keypoints, &b.keypoints, 0.8);
+        let matches = mutual_matches(&a.keypoints, &b.keypoints, 0.8, config.descriptor.frames());
         let good = matches
             .iter()
             .filter(|m| correct(&map, point(&a.keypoints[m.i]), point(&b.keypoints[m.j])))

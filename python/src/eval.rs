@@ -83,11 +83,12 @@ pub(crate) fn recall(
 /// neighbours of the descriptors passing the ratio test both ways, verified by RANSAC
 /// (`verify` = "homography", "fundamental" or "none"; `threshold` in pixels), then, with
 /// `guided`, matched again among the candidates the model maps within `threshold` of each
-/// other and verified again. Returns a dict
+/// other and verified again. `frames`: equal frames per descriptor row (2 for "steered-twin"
+/// descriptors), two rows being as near as their nearest pair of frames. Returns a dict
 /// with arrays `i`, `j` (indices into each set), `distance`, `inlier` (bool), and `model`, the
 /// fitted 3×3 H or F (None when none was found).
 #[pyfunction]
-#[pyo3(signature = (kp1, desc1, kp2, desc2, ratio = 0.8, verify = "homography", threshold = 3.0, iterations = 10_000, seed = 1, guided = true))]
+#[pyo3(signature = (kp1, desc1, kp2, desc2, ratio = 0.8, verify = "homography", threshold = 3.0, iterations = 10_000, seed = 1, guided = true, frames = 1))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn match_keypoints(
     py: Python<'_>,
@@ -101,6 +102,7 @@ pub(crate) fn match_keypoints(
     iterations: usize,
     seed: u64,
     guided: bool,
+    frames: usize,
 ) -> PyResult<Matches> {
     use steernav_core::features::matching::{MatchSettings, Matched, Verification};
     let verification: Verification = verify
@@ -113,6 +115,7 @@ pub(crate) fn match_keypoints(
         iterations,
         seed,
         guided,
+        frames,
     };
     // The library names its field; Python calls the threshold `threshold`.
     settings.validate().map_err(|e| {

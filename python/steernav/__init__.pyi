@@ -25,10 +25,10 @@ class Keypoints:
     """(K,): strongest scale-normalised Harris response of the cluster."""
     descriptor: npt.NDArray[np.float32]
     """(K, L): L = 128 steered responses in the keypoint's frame (unit length) for
-    descriptor="steered", the default; L = 5 entropies (bits) at 16 … 256 colours for
-    descriptor="entropy"."""
+    descriptor="steered", the default; 256 (two frames) for "steered-twin"; L = 5 entropies
+    (bits) at 16 … 256 colours for descriptor="entropy"."""
     descriptor_kind: str
-    """"steered" or "entropy"."""
+    """"steered", "steered-twin" or "entropy"."""
     backend: str
     """"cpu" or "gpu": where the detection ran."""
     def __init__(
@@ -191,11 +191,13 @@ def match_keypoints(
     iterations: int = 10000,
     seed: int = 1,
     guided: bool = True,
+    frames: int = 1,
 ) -> "Matches":
     """Correspondences as `steernav match` makes them: mutual nearest neighbours passing the
     ratio test both ways, verified by RANSAC ("homography", "fundamental" or "none",
     `threshold` in pixels), then, with `guided`, matched again among the candidates the model
-    maps within `threshold` of each other and verified again."""
+    maps within `threshold` of each other and verified again. `frames`: equal frames per
+    descriptor row (2 for "steered-twin"), two rows as near as their nearest pair of frames."""
 
 class Matches:
     """Correspondences between two keypoint sets, sorted by descriptor distance."""

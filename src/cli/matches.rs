@@ -84,6 +84,7 @@ struct MatchRow {
 }
 
 pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
+    let config = cmd.detector.config_from(DetectorConfig::matching())?;
     let settings = MatchSettings {
         ratio: cmd.ratio,
         verification: cmd.verify,
@@ -91,6 +92,7 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
         iterations: cmd.iterations,
         seed: 1,
         guided: !cmd.no_guided,
+        frames: config.descriptor.frames(),
     };
     // The library names the setting; the command line says it as the flag.
     settings.validate().map_err(|e| match e {
@@ -101,7 +103,6 @@ pub fn run(cmd: MatchCmd) -> anyhow::Result<ExitCode> {
         } => anyhow::anyhow!("--{} {value}: {reason}", field.replace('_', "-")),
         other => other.into(),
     })?;
-    let config = cmd.detector.config_from(DetectorConfig::matching())?;
     if config.descriptor == DescriptorKind::None {
         anyhow::bail!("--descriptor none: the keypoints would carry nothing to match on");
     }

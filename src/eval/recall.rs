@@ -6,7 +6,6 @@
 
 use super::homography::{project, Homography};
 use super::repeatability::correspondences;
-use crate::features::steered::STEERED_LEN;
 
 /// Descriptors of a keypoint set, one per point.
 #[derive(Clone, Debug, PartialEq)]
@@ -15,13 +14,16 @@ pub enum Descriptors {
     Float(Vec<Vec<f32>>),
     /// Binary descriptors compared by Hamming distance (ORB, BRISK, AKAZE).
     Binary(Vec<Vec<u8>>),
+    /// Real-valued descriptors of several equal frames each, as near as their nearest pair of
+    /// frames (steernav's `steered-twin`: 2 frames).
+    Framed(Vec<Vec<f32>>, usize),
 }
 
 impl Descriptors {
     /// Number of descriptors.
     pub fn len(&self) -> usize {
         match self {
-            Descriptors::Float(v) => v.len(),
+            Descriptors::Float(v) | Descriptors::Framed(v, _) => v.len(),
             Descriptors::Binary(v) => v.len(),
         }
     }
@@ -35,6 +37,9 @@ impl Descriptors {
     pub fn truncated(&self, n: usize) -> Self {
         match self {
             Descriptors::Float(v) => Descriptors::Float(v.iter().take(n).cloned().collect()),
+            Descriptors::Framed(v, f) => {
+                Descriptors::Framed(v.iter().take(n).cloned().collect(), *f)
+            }
             Descriptors::Binary(v) => Descriptors::Binary(v.iter().take(n).cloned().collect()),
         }
     }
@@ -65,8 +70,8 @@ impl Descriptors {
     /// Distance between descriptor `i` of `self` and descriptor `j` of `other` (same kind).
     pub fn distance(&self, i: usize, other: &Self, j: usize) -> f64 {
         match (self, other) {
-            (Descriptors::Float(a), Descriptors::Float(b)) if a[i].len() == 2 * STEERED_LEN => {
-                (crate::features::steered::squared_distance(&a[i], &b[j]) as f64).sqrt()
+            (Descriptors::Framed(a, f), Descriptors::Framed(b, _)) => {
+                (crate::features::steered::squared_distance(&a[i], &b[j], *f) as f64).sqrt()
             }
             (Descriptors::Float(a), Descriptors::Float(b)) => a[i]
                 .iter()
@@ -102,6 +107,9 @@ impl KeypointSet {
         let descriptors = match &self.descriptors {
             Descriptors::Float(v) => {
                 Descriptors::Float(keep.iter().map(|&i| v[i].clone()).collect())
+            }
+            Descriptors::Framed(v, f) => {
+                Descriptors::Framed(keep.iter().map(|&i| v[i].clone()).collect(), *f)
             }
             Descriptors::Binary(v) => {
                 Descriptors::Binary(keep.iter().map(|&i| v[i].clone()).collect())

@@ -68,15 +68,17 @@ impl Default for EvalOptions {
 /// The keypoints of a steernav detection as an evaluation set.
 pub fn steernav_set(detector: &Detector, frame: &Frame) -> Result<KeypointSet> {
     let d = detector.detect(frame)?;
+    let values = d.keypoints.iter().map(|k| k.descriptor.to_vec()).collect();
     Ok(KeypointSet {
         points: d
             .keypoints
             .iter()
             .map(|k| (k.x as f64, k.y as f64))
             .collect(),
-        descriptors: Descriptors::Float(
-            d.keypoints.iter().map(|k| k.descriptor.to_vec()).collect(),
-        ),
+        descriptors: match detector.config().descriptor.frames() {
+            1 => Descriptors::Float(values),
+            frames => Descriptors::Framed(values, frames),
+        },
         scales: d.keypoints.iter().map(|k| k.scale as f64).collect(),
     })
 }

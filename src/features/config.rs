@@ -93,6 +93,15 @@ named_variants!(DescriptorKind {
 });
 
 impl DescriptorKind {
+    /// Frames each descriptor holds (2 for `steered-twin`, else 1): the `frames` of
+    /// [`crate::low_level::steered::squared_distance`] and of the matcher's settings.
+    pub fn frames(self) -> usize {
+        match self {
+            DescriptorKind::SteeredTwin => 2,
+            _ => 1,
+        }
+    }
+
     /// Number of values per keypoint.
     pub fn length(self) -> usize {
         match self {

@@ -25,10 +25,11 @@ pub struct Match {
 
 /// Mutual nearest neighbours in descriptor space that pass the ratio test in both
 /// directions: each is the other's nearest, and nearer than `ratio` × the second nearest.
-/// Sorted by distance.
-pub fn mutual_matches(a: &[Keypoint], b: &[Keypoint], ratio: f32) -> Vec<Match> {
-    let forward = nearest(a, b, ratio);
-    let backward = nearest(b, a, ratio);
+/// Descriptors of `frames` frames each (2 for `steered-twin`, else 1) are as near as their
+/// nearest pair of frames. Sorted by distance.
+pub fn mutual_matches(a: &[Keypoint], b: &[Keypoint], ratio: f32, frames: usize) -> Vec<Match> {
+    let forward = nearest(a, b, ratio, frames);
+    let backward = nearest(b, a, ratio, frames);
     let mut out: Vec<Match> = forward
         .iter()
         .enumerate()
@@ -43,9 +44,14 @@ pub fn mutual_matches(a: &[Keypoint], b: &[Keypoint], ratio: f32) -> Vec<Match> 
 
 /// For each keypoint of `from`, its nearest in `to` and the distance, when that passes the
 /// ratio test against the second nearest.
-fn nearest(from: &[Keypoint], to: &[Keypoint], ratio: f32) -> Vec<Option<(usize, f32)>> {
+fn nearest(
+    from: &[Keypoint],
+    to: &[Keypoint],
+    ratio: f32,
+    frames: usize,
+) -> Vec<Option<(usize, f32)>> {
     from.par_iter()
-        .map(|p| ratio_nearest(p, to.iter().enumerate(), ratio))
+        .map(|p| ratio_nearest(p, to.iter().enumerate(), ratio, frames))
         .collect()
 }
 
@@ -55,10 +61,11 @@ fn ratio_nearest<'a>(
     p: &Keypoint,
     candidates: impl Iterator<Item = (usize, &'a Keypoint)>,
     ratio: f32,
+    frames: usize,
 ) -> Option<(usize, f32)> {
     let (mut best, mut second) = ((usize::MAX, f32::INFINITY), f32::INFINITY);
     for (j, q) in candidates {
-        let d2 = crate::features::steered::squared_distance(&p.descriptor, &q.descriptor);
+        let d2 = crate::features::steered::squared_distance(&p.descriptor, &q.descriptor, frames);
         if d2 < best.1 {
             second = best.1;
             best = (j, d2);
@@ -150,6 +157,10 @@ pub struct MatchSettings {
     /// `inlier_threshold` of each other (ratio test among those candidates, mutual), and
     /// verify again, up to [`GUIDED_ROUNDS`] times while the inliers grow. Default true.
     pub guided: bool,
+    /// Frames each descriptor holds, 1 to 16 ([`crate::features::DescriptorKind::frames`]: 2
+    /// for `steered-twin`): two descriptors are as near as their nearest pair of frames.
+    /// Default 1.
+    pub frames: usize,
 }
 
 /// Guided matching starts from a model with at least this many inliers per correspondence
@@ -168,6 +179,7 @@ impl Default for MatchSettings {
             iterations: 10_000,
             seed: 1,
             guided: true,
+            frames: 1,
         }
     }
 }
@@ -194,6 +206,9 @@ impl MatchSettings {
                 self.inlier_threshold,
                 "must be a positive number of pixels",
             ));
+        }
+        if !(1..=16).contains(&self.frames) {
+            return Err(Error::config("frames", self.frames, "must be 1 to 16"));
         }
         if !(1..=1_000_000).contains(&self.iterations) {
             return Err(Error::config(
@@ -228,7 +243,7 @@ impl MatchSettings {
                 ));
             }
         }
-        let mut best = self.verified(a, b, mutual_matches(a, b, self.ratio));
+        let mut best = self.verified(a, b, mutual_matches(a, b, self.ratio, self.frames));
         if !self.guided {
             return Ok(best);
         }
@@ -247,6 +262,7 @@ impl MatchSettings {
                 &model,
                 self.inlier_threshold,
                 self.ratio,
+                self.frames,
             );
             let next = self.verified(a, b, guided);
             if next.verified.inliers.iter().filter(|&&f| f).count() <= inliers {
@@ -287,6 +303,7 @@ pub fn guided_matches(
     model: &[f64; 9],
     threshold: f64,
     ratio: f32,
+    frames: usize,
 ) -> Vec<Match> {
     let error: ErrorFn = match verification {
         Verification::Homography => homography_error,
@@ -305,7 +322,7 @@ pub fn guided_matches(
                 .iter()
                 .enumerate()
                 .filter(|(_, q)| error(&m, &(x, (q.x as f64, q.y as f64))) < t2);
-            ratio_nearest(p, near, ratio)
+            ratio_nearest(p, near, ratio, frames)
         })
         .collect();
     let mut nearest_a = vec![(usize::MAX, f32::INFINITY); b.len()];

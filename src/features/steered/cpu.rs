@@ -602,12 +602,15 @@ mod tests {
         let apart = (second.orientation - first.orientation).rem_euclid(TAU);
         let apart = apart.min(TAU - apart);
         assert!((apart - PI / 2.0).abs() < 0.3, "{apart}");
-        let plain = |a: &Steered, b: &Steered| super::super::squared_distance(&a.values, &b.values);
+        let plain =
+            |a: &Steered, b: &Steered| super::super::squared_distance(&a.values, &b.values, 1);
         assert!(plain(&first, &second) > 0.1);
         // Both frames concatenated: as near as the nearest pair of frames.
         let twin = [first.values.clone(), second.values.clone()].concat();
         let alone = [second.values.clone(), second.values.clone()].concat();
-        assert_eq!(super::super::squared_distance(&twin, &alone), 0.0);
+        assert_eq!(super::super::squared_distance(&twin, &alone, 2), 0.0);
+        // Read as one frame of 256 values, the same pair is far apart.
+        assert!(super::super::squared_distance(&twin, &alone, 1) > 0.1);
         let edge: Vec<f32> = (0..w * h)
             .map(|k| if k / w > 32 { 0.8 } else { 0.2 })
             .collect();

@@ -122,22 +122,20 @@ pub(crate) fn floor(t: f32) -> f32 {
     }
 }
 
-/// Squared Euclidean distance between two descriptors of one kind; two `steered-twin`
-/// descriptors (2 × [`STEERED_LEN`] values, one frame each) are as near as their nearest pair
-/// of frames.
-pub fn squared_distance(a: &[f32], b: &[f32]) -> f32 {
+/// Squared distance between two descriptors of `frames` equal frames each (1 for most kinds,
+/// [`crate::features::DescriptorKind::frames`]): the squared Euclidean distance of the nearest
+/// pair of frames, so two `steered-twin` descriptors are as near as their nearest frames.
+/// With one frame, or lengths that do not split into `frames`, the plain squared distance.
+pub fn squared_distance(a: &[f32], b: &[f32], frames: usize) -> f32 {
     let plain =
         |x: &[f32], y: &[f32]| -> f32 { x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum() };
-    if a.len() == 2 * STEERED_LEN && b.len() == 2 * STEERED_LEN {
-        let (a1, a2) = a.split_at(STEERED_LEN);
-        let (b1, b2) = b.split_at(STEERED_LEN);
-        plain(a1, b1)
-            .min(plain(a1, b2))
-            .min(plain(a2, b1))
-            .min(plain(a2, b2))
-    } else {
-        plain(a, b)
+    if frames <= 1 || a.len() != b.len() || !a.len().is_multiple_of(frames) {
+        return plain(a, b);
     }
+    let side = a.len() / frames;
+    a.chunks_exact(side)
+        .flat_map(|x| b.chunks_exact(side).map(move |y| plain(x, y)))
+        .fold(f32::INFINITY, f32::min)
 }
 
 /// A descriptor and the orientation of its frame.
