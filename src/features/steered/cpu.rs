@@ -555,13 +555,9 @@ fn orientations<F: Floor>(
     (refined(peak), second.map(refined))
 }
 
-/// Euclidean distance between two steered descriptors.
+/// Euclidean distance between two steered descriptors, read as one frame.
 pub fn distance(a: &[f32], b: &[f32]) -> f32 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f32>()
-        .sqrt()
+    super::squared_distance(a, b, 1).sqrt()
 }
 
 #[cfg(test)]
